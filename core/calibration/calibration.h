@@ -1,0 +1,85 @@
+#pragma once
+// Camera models of the rig, in the robot frame (+x right, +y forward, +z up, metres, origin on
+// the floor under the robot centre). Device side: allocation-free, fixed size.
+// Owner: calibration stage (issue 4). Other stages rely on the names below; extend, don't rename.
+#include <cstddef>
+#include <cstdint>
+#include <span>
+
+#include <Eigen/Core>
+
+#include "core/common/status.h"
+
+namespace bv {
+
+/// A viewing ray in the robot frame; dir is unit length.
+struct Ray {
+  Eigen::Vector3f origin = Eigen::Vector3f::Zero();
+  Eigen::Vector3f dir = Eigen::Vector3f::UnitY();
+};
+
+/// Pinhole + 2 radial terms (+ optional skew), Zhang's model; pixel (0,0) = top-left pixel centre.
+struct PerspCalibration {
+  bool valid = false;
+  int width_px = 640, height_px = 480;
+  float fx = 0, fy = 0, cx = 0, cy = 0, skew = 0, k1 = 0, k2 = 0;
+  float rms_px = 0;
+  // Camera pose: p_robot = R_robot_cam * p_cam + t_robot_cam (camera: x right, y down, z forward).
+  Eigen::Matrix3f R_robot_cam = Eigen::Matrix3f::Identity();
+  Eigen::Vector3f t_robot_cam = Eigen::Vector3f::Zero();
+};
+
+/// The paper's model-free omni calibration: image centre + per-direction piecewise-linear map
+/// from image distance (px) to ground distance (m), 45 sectors x 12 support vectors.
+struct OmniCalibration {
+  static constexpr int kDirections = 45;
+  static constexpr int kEdges = 12;
+  bool valid = false;
+  float center_u = 0, center_v = 0;
+  float viewpoint_z_m = 0;  // f_O, mirror viewpoint height (rig constant)
+  // Image direction of sector s covers angle [s*8°, (s+1)*8°) measured in the image; the
+  // convention between image angle and robot bearing is documented in calibration.cpp.
+  float edge_ground_m[kEdges] = {};                // ground distances of the support vectors
+  float support_px[kDirections][kEdges] = {};      // image radius of each support vector
+  uint8_t sector_flags[kDirections] = {};          // bit 0: interpolated (occluded sector)
+};
+
+struct RigCalibration {
+  uint32_t calibration_id = 0;  // changes with every calibration written; reported in status
+  uint32_t lut_id = 0;          // CRC of the colour LUT this calibration was made with
+  float ball_radius_m = 0.11f;
+  PerspCalibration persp;
+  OmniCalibration omni;
+};
+
+// --- perspective camera ---
+/// Pixel -> unit viewing ray in the robot frame (fixed-iteration inverse distortion).
+/// Errors: kFailedPrecondition (not valid), kInvalidArgument (NaN), kOutOfRange (no convergence).
+Result<Ray> PerspPixelToRay(const PerspCalibration& cal, float u_px, float v_px);
+/// Robot-frame point -> pixel. kOutOfRange if the point is behind the camera.
+Status PerspProject(const PerspCalibration& cal, const Eigen::Vector3f& p_robot, float& u_px,
+                    float& v_px);
+
+// --- omni camera ---
+/// Image point -> ground point (z = 0) in the robot frame. kOutOfRange beyond the calibrated map.
+Status OmniPixelToGround(const OmniCalibration& cal, float u_px, float v_px, float& x_m,
+                         float& y_m);
+/// Ground point -> image point (inverse of the above). kOutOfRange outside the calibrated range.
+Status OmniGroundToPixel(const OmniCalibration& cal, float x_m, float y_m, float& u_px,
+                         float& v_px);
+/// Viewing ray from the mirror viewpoint (0, 0, f_O) through the ground point of the pixel.
+Result<Ray> OmniPixelToRay(const OmniCalibration& cal, float u_px, float v_px);
+/// Robot-frame 3D point -> image point: the ground point where the viewpoint ray through the
+/// point meets the floor, projected. kOutOfRange if the point is at or above the viewpoint.
+Status OmniProject(const OmniCalibration& cal, const Eigen::Vector3f& p_robot, float& u_px,
+                   float& v_px);
+
+// --- the device blob (BlobKind::kCalibration, see core/common/blob.h) ---
+inline constexpr uint16_t kCalibrationBlobVersion = 1;
+/// Upper bound of a serialised calibration blob, header included.
+inline constexpr size_t kCalibrationBlobMaxBytes = 4096;
+Result<size_t> SerializeCalibration(const RigCalibration& cal, std::span<uint8_t> out);
+/// Validates everything (CRC, version, finite values, sane ranges) before touching `out`.
+Status ParseCalibration(std::span<const uint8_t> blob, RigCalibration& out);
+
+}  // namespace bv

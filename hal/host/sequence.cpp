@@ -1,0 +1,308 @@
+#include "hal/host/sequence.h"
+
+#include <png.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <memory>
+#include <set>
+#include <sstream>
+#include <sys/stat.h>
+
+namespace bv::host {
+namespace {
+
+bool FileExists(const std::string& path) {
+  struct stat st;
+  return stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode);
+}
+
+bool EndsWith(const std::string& s, const char* suffix) {
+  const size_t n = std::strlen(suffix);
+  if (s.size() < n) return false;
+  return std::equal(s.end() - static_cast<ptrdiff_t>(n), s.end(), suffix,
+                    [](char a, char b) { return std::tolower(a) == std::tolower(b); });
+}
+
+std::vector<std::string> SplitCsv(const std::string& line) {
+  std::vector<std::string> out;
+  std::string cur;
+  for (char c : line) {
+    if (c == ',') {
+      out.push_back(cur);
+      cur.clear();
+    } else if (c != '\r') {
+      cur.push_back(c);
+    }
+  }
+  out.push_back(cur);
+  return out;
+}
+
+bool ParseInt(const std::string& s, long long& v) {
+  if (s.empty()) return false;
+  char* end = nullptr;
+  errno = 0;
+  v = std::strtoll(s.c_str(), &end, 10);
+  return errno == 0 && end && *end == '\0';
+}
+
+uint8_t Clamp8(int v) { return static_cast<uint8_t>(std::clamp(v, 0, 255)); }
+
+bool LoadPng(const std::string& path, std::vector<uint8_t>& rgb, int& width, int& height,
+             std::string& error) {
+  png_image image;
+  std::memset(&image, 0, sizeof image);
+  image.version = PNG_IMAGE_VERSION;
+  if (!png_image_begin_read_from_file(&image, path.c_str())) {
+    error = path + ": not a readable PNG (" + image.message + ")";
+    return false;
+  }
+  image.format = PNG_FORMAT_RGB;
+  if (image.width == 0 || image.height == 0 || image.width > 8192 || image.height > 8192) {
+    png_image_free(&image);
+    error = path + ": PNG size " + std::to_string(image.width) + "x" +
+            std::to_string(image.height) + " outside 1..8192";
+    return false;
+  }
+  rgb.assign(PNG_IMAGE_SIZE(image), 0);
+  if (!png_image_finish_read(&image, nullptr, rgb.data(), 0, nullptr)) {
+    error = path + ": corrupt PNG (" + image.message + ")";
+    png_image_free(&image);
+    return false;
+  }
+  width = static_cast<int>(image.width);
+  height = static_cast<int>(image.height);
+  return true;
+}
+
+}  // namespace
+
+void RgbToYuyv(const uint8_t* rgb, int width, int height, uint8_t* yuyv) {
+  // BT.601 full range, fixed point (x256); chroma averaged over the horizontal pair.
+  for (int v = 0; v < height; ++v) {
+    for (int u = 0; u + 1 < width + 1; u += 2) {
+      const uint8_t* p0 = rgb + (static_cast<size_t>(v) * width + u) * 3;
+      const uint8_t* p1 = (u + 1 < width) ? p0 + 3 : p0;
+      int ys[2], us = 0, vs = 0;
+      for (int k = 0; k < 2; ++k) {
+        const uint8_t* p = k ? p1 : p0;
+        const int r = p[0], g = p[1], b = p[2];
+        ys[k] = (77 * r + 150 * g + 29 * b + 128) >> 8;
+        us += -43 * r - 85 * g + 128 * b;
+        vs += 128 * r - 107 * g - 21 * b;
+      }
+      uint8_t* o = yuyv + (static_cast<size_t>(v) * width + u) * 2;
+      o[0] = Clamp8(ys[0]);
+      o[1] = Clamp8(((us + 256) >> 9) + 128);
+      if (u + 1 < width) o[2] = Clamp8(ys[1]);
+      if (u + 1 < width) o[3] = Clamp8(((vs + 256) >> 9) + 128);
+    }
+  }
+}
+
+void YuyvToRgb(const uint8_t* yuyv, int width, int height, uint8_t* rgb) {
+  for (int v = 0; v < height; ++v) {
+    for (int u = 0; u < width; ++u) {
+      const uint8_t* pair = yuyv + (static_cast<size_t>(v) * width + (u & ~1)) * 2;
+      const int y = pair[(u & 1) * 2];
+      const int cb = pair[1] - 128, cr = pair[3] - 128;
+      uint8_t* o = rgb + (static_cast<size_t>(v) * width + u) * 3;
+      o[0] = Clamp8(y + ((359 * cr + 128) >> 8));
+      o[1] = Clamp8(y - ((88 * cb + 183 * cr + 128) >> 8));
+      o[2] = Clamp8(y + ((454 * cb + 128) >> 8));
+    }
+  }
+}
+
+bool LoadYuyv(const std::string& path, std::vector<uint8_t>& out, int& width, int& height,
+              std::string& error, int expected_width, int expected_height) {
+  if (EndsWith(path, ".yuyv") || EndsWith(path, ".yuv")) {
+    std::ifstream f(path, std::ios::binary | std::ios::ate);
+    if (!f) {
+      error = path + ": cannot open";
+      return false;
+    }
+    const auto size = static_cast<size_t>(f.tellg());
+    const size_t want = static_cast<size_t>(expected_width) * expected_height * 2;
+    if (size != want) {
+      error = path + ": raw YUYV frame has " + std::to_string(size) + " bytes, expected " +
+              std::to_string(want) + " (" + std::to_string(expected_width) + "x" +
+              std::to_string(expected_height) + "x2)";
+      return false;
+    }
+    out.resize(size);
+    f.seekg(0);
+    f.read(reinterpret_cast<char*>(out.data()), static_cast<std::streamsize>(size));
+    if (!f) {
+      error = path + ": read failed";
+      return false;
+    }
+    width = expected_width;
+    height = expected_height;
+    return true;
+  }
+  if (!EndsWith(path, ".png")) {
+    error = path + ": unsupported image type (want .png or .yuyv)";
+    return false;
+  }
+  std::vector<uint8_t> rgb;
+  if (!LoadPng(path, rgb, width, height, error)) return false;
+  out.resize(static_cast<size_t>(width) * height * 2);
+  RgbToYuyv(rgb.data(), width, height, out.data());
+  return true;
+}
+
+bool SaveYuyv(const std::string& path, const uint8_t* yuyv, int width, int height,
+              std::string& error) {
+  if (EndsWith(path, ".png")) {
+    std::vector<uint8_t> rgb(static_cast<size_t>(width) * height * 3);
+    YuyvToRgb(yuyv, width, height, rgb.data());
+    png_image image;
+    std::memset(&image, 0, sizeof image);
+    image.version = PNG_IMAGE_VERSION;
+    image.width = static_cast<png_uint_32>(width);
+    image.height = static_cast<png_uint_32>(height);
+    image.format = PNG_FORMAT_RGB;
+    if (!png_image_write_to_file(&image, path.c_str(), 0, rgb.data(), 0, nullptr)) {
+      error = path + ": PNG write failed (" + image.message + ")";
+      return false;
+    }
+    return true;
+  }
+  std::ofstream f(path, std::ios::binary);
+  f.write(reinterpret_cast<const char*>(yuyv), static_cast<std::streamsize>(width) * height * 2);
+  if (!f) {
+    error = path + ": write failed";
+    return false;
+  }
+  return true;
+}
+
+bool LoadSequence(const std::string& dir, Sequence& out, std::string& error) {
+  const std::string csv = dir + "/frames.csv";
+  std::ifstream f(csv);
+  if (!f) {
+    error = csv + ": cannot open (is '" + dir + "' a captured sequence directory?)";
+    return false;
+  }
+  out = Sequence{};
+  out.dir = dir;
+  std::string line;
+  if (!std::getline(f, line)) {
+    error = csv + ": empty file";
+    return false;
+  }
+  const auto header = SplitCsv(line);
+  int col_index = -1, col_t = -1, col_omni = -1, col_persp = -1;
+  for (size_t i = 0; i < header.size(); ++i) {
+    if (header[i] == "index") col_index = static_cast<int>(i);
+    if (header[i] == "t_us") col_t = static_cast<int>(i);
+    if (header[i] == "omni_file") col_omni = static_cast<int>(i);
+    if (header[i] == "persp_file") col_persp = static_cast<int>(i);
+  }
+  if (col_index < 0 || col_t < 0 || col_omni < 0 || col_persp < 0) {
+    error = csv + ":1: header must have columns index,t_us,omni_file,persp_file";
+    return false;
+  }
+  const size_t ncols = header.size();
+  std::set<long long> seen;
+  int lineno = 1;
+  while (std::getline(f, line)) {
+    ++lineno;
+    if (line.empty() || line == "\r") continue;
+    const auto cols = SplitCsv(line);
+    const std::string where = csv + ":" + std::to_string(lineno) + ": ";
+    if (cols.size() != ncols) {
+      error = where + "has " + std::to_string(cols.size()) + " columns, header has " +
+              std::to_string(ncols);
+      return false;
+    }
+    long long index = 0, t = 0;
+    if (!ParseInt(cols[col_index], index)) {
+      error = where + "index '" + cols[col_index] + "' is not an integer";
+      return false;
+    }
+    if (!ParseInt(cols[col_t], t) || t < 0) {
+      error = where + "t_us '" + cols[col_t] + "' is not a non-negative integer";
+      return false;
+    }
+    if (!seen.insert(index).second) {
+      error = where + "duplicate index " + std::to_string(index);
+      return false;
+    }
+    if (!out.entries.empty() && static_cast<uint64_t>(t) <= out.entries.back().t_us) {
+      error = where + "t_us " + std::to_string(t) + " is not after the previous row's " +
+              std::to_string(out.entries.back().t_us);
+      return false;
+    }
+    SequenceEntry e;
+    e.index = index;
+    e.t_us = static_cast<uint64_t>(t);
+    for (int c = 0; c < 2; ++c) {
+      const std::string& name = cols[c == 0 ? col_omni : col_persp];
+      if (name.empty()) continue;
+      std::string path = (!name.empty() && name[0] == '/') ? name : dir + "/" + name;
+      if (!FileExists(path)) {
+        error = where + "image '" + name + "' not found";
+        return false;
+      }
+      (c == 0 ? e.omni_path : e.persp_path) = path;
+    }
+    out.entries.push_back(std::move(e));
+  }
+  if (out.entries.empty()) {
+    error = csv + ": no frames";
+    return false;
+  }
+  return true;
+}
+
+Status SequenceCamera::DoStart() {
+  next_ = 0;
+  return seq_.entries.empty() ? Status(StatusCode::kUnavailable, "sequence has no frames")
+                              : Status();
+}
+
+Status SequenceCamera::DoAcquirePair(hal::FramePair& out) {
+  if (next_ >= seq_.entries.size()) return Status(StatusCode::kUnavailable, "end of sequence");
+  cur_ = &seq_.entries[next_];
+  out = hal::FramePair{};
+  out.slot = static_cast<uint32_t>(next_);
+  out.exposure_us = cur_->t_us;
+  const std::string* paths[2] = {&cur_->omni_path, &cur_->persp_path};
+  hal::Frame* frames[2] = {&out.omni, &out.persp};
+  for (int c = 0; c < hal::kCameraCount; ++c) {
+    if (paths[c]->empty()) continue;
+    int w = 0, h = 0;
+    std::string err;
+    if (!LoadYuyv(*paths[c], buf_[c], w, h, err) || w != 640 || h != 480) {
+      if (err.empty()) {
+        err = *paths[c] + ": image is " + std::to_string(w) + "x" + std::to_string(h) +
+              ", expected 640x480";
+      }
+      ++load_errors_;
+      last_error_ = err;
+      continue;
+    }
+    frames[c]->data = buf_[c].data();
+    frames[c]->size_bytes = buf_[c].size();
+    frames[c]->exposure_us = cur_->t_us;
+    frames[c]->sequence = static_cast<uint32_t>(cur_->index);
+    frames[c]->present = true;
+  }
+  if (!out.omni.present) out.flags |= hal::kPairOmniMissing;
+  if (!out.persp.present) out.flags |= hal::kPairPerspMissing;
+  if (next_ > 0 && cur_->t_us <= last_t_us_) out.flags |= hal::kPairOutOfOrder;
+  last_t_us_ = cur_->t_us;
+  ++next_;
+  return Status();
+}
+
+void SequenceCamera::DoRelease(const hal::FramePair&) {}
+
+}  // namespace bv::host

@@ -1,0 +1,12 @@
+#include <cstdio>
+
+#include "tools/ballvision/commands.h"
+
+namespace bv::cli {
+
+int CmdCalib(int, char** argv) {
+  std::fprintf(stderr, "ballvision %s: not implemented yet\n", argv[0]);
+  return 1;
+}
+
+}  // namespace bv::cli

@@ -1,0 +1,22 @@
+#include <cstdio>
+
+#include "tools/ballvision/commands.h"
+
+namespace bv::cli {
+
+int CmdDemo(int, char** argv) {
+  std::fprintf(stderr, "ballvision %s: not implemented yet\n", argv[0]);
+  return 1;
+}
+
+int CmdRun(int, char** argv) {
+  std::fprintf(stderr, "ballvision %s: not implemented yet\n", argv[0]);
+  return 1;
+}
+
+int CmdEval(int, char** argv) {
+  std::fprintf(stderr, "ballvision %s: not implemented yet\n", argv[0]);
+  return 1;
+}
+
+}  // namespace bv::cli

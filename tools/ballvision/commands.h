@@ -1,0 +1,15 @@
+#pragma once
+// Sub-commands of the `ballvision` CLI. Each returns the process exit code: 0 success,
+// 1 the job failed (message on stderr), 2 usage error.
+namespace bv::cli {
+
+int CmdDemo(int argc, char** argv);       // cmd_run.cpp
+int CmdRun(int argc, char** argv);        // cmd_run.cpp
+int CmdEval(int argc, char** argv);       // cmd_run.cpp
+int CmdLut(int argc, char** argv);        // cmd_lut.cpp
+int CmdCalibrate(int argc, char** argv);  // cmd_calibrate.cpp
+int CmdCalib(int argc, char** argv);      // cmd_calib.cpp: convert JSON <-> blob, show
+int CmdListen(int argc, char** argv);     // cmd_listen.cpp
+int CmdSeq(int argc, char** argv);        // cmd_seq.cpp: inspect / convert captured sequences
+
+}  // namespace bv::cli

@@ -1,0 +1,45 @@
+// ballvision: the host command line. Dispatch only; the commands live in bv_tools_lib.
+#include <cstdio>
+#include <cstring>
+
+#include "tools/ballvision/commands.h"
+
+namespace {
+
+struct Command {
+  const char* name;
+  int (*fn)(int, char**);
+  const char* help;
+};
+
+constexpr Command kCommands[] = {
+    {"demo", bv::cli::CmdDemo, "run the full pipeline on a built-in synthetic sequence"},
+    {"run", bv::cli::CmdRun, "SEQ --calib FILE [--out states.csv] [--predict-ms N]"},
+    {"eval", bv::cli::CmdEval, "SEQ --calib FILE: compare with truth.csv, print error tables"},
+    {"lut", bv::cli::CmdLut, "train | show | classify: colour lookup tables"},
+    {"calibrate", bv::cli::CmdCalibrate, "persp | omni: calibrate a camera"},
+    {"calib", bv::cli::CmdCalib, "to-blob | to-json | show: convert the calibration file"},
+    {"listen", bv::cli::CmdListen, "decode a serial stream (device, pty, file, tcp:HOST:PORT)"},
+    {"seq", bv::cli::CmdSeq, "info | to-raw: inspect or convert a captured sequence"},
+};
+
+void Usage(FILE* out) {
+  std::fprintf(out, "usage: ballvision COMMAND [ARGS]\n\ncommands:\n");
+  for (const Command& c : kCommands) std::fprintf(out, "  %-10s %s\n", c.name, c.help);
+  std::fprintf(out, "\n'ballvision COMMAND --help' shows a command's options.\n");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 2 || !std::strcmp(argv[1], "--help") || !std::strcmp(argv[1], "-h")) {
+    Usage(argc < 2 ? stderr : stdout);
+    return argc < 2 ? 2 : 0;
+  }
+  for (const Command& c : kCommands) {
+    if (!std::strcmp(argv[1], c.name)) return c.fn(argc - 1, argv + 1);
+  }
+  std::fprintf(stderr, "ballvision: unknown command '%s'\n\n", argv[1]);
+  Usage(stderr);
+  return 2;
+}
