@@ -1,12 +1,240 @@
-#include <cstdio>
+// ballvision listen: the main computer's side of the serial link. Reads a serial device, a pty,
+// a file, stdin or a TCP socket (QEMU's -chardev socket), decodes with core/protocol, shows a
+// live table and writes CSV.
+#include <arpa/inet.h>
+#include <fcntl.h>
+#include <netdb.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <termios.h>
+#include <unistd.h>
 
+#include <cerrno>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <string>
+
+#include "core/protocol/protocol.h"
 #include "tools/ballvision/commands.h"
+#include "tools/ballvision/states_csv.h"
 
 namespace bv::cli {
+namespace {
 
-int CmdListen(int, char** argv) {
-  std::fprintf(stderr, "ballvision %s: not implemented yet\n", argv[0]);
-  return 1;
+int ListenUsage() {
+  std::fprintf(stderr,
+               "usage: ballvision listen SOURCE [--csv STATES.csv] [--status-csv STATUS.csv]\n"
+               "                         [--baud N] [--seconds S] [--quiet]\n"
+               "  SOURCE: a serial device or pty (/dev/ttyUSB0), a file of captured bytes, '-'\n"
+               "          for stdin, or tcp:HOST:PORT (e.g. QEMU -chardev socket)\n"
+               "  Prints a live table (unless --quiet) and a summary; exit 1 if nothing valid\n"
+               "  was received.\n");
+  return 2;
+}
+
+speed_t BaudFlag(long baud) {
+  switch (baud) {
+    case 9600: return B9600;
+    case 19200: return B19200;
+    case 38400: return B38400;
+    case 57600: return B57600;
+    case 115200: return B115200;
+    case 230400: return B230400;
+    case 460800: return B460800;
+    case 921600: return B921600;
+    case 1000000: return B1000000;
+    case 2000000: return B2000000;
+    default: return 0;
+  }
+}
+
+int OpenSource(const std::string& src, long baud, std::string& err) {
+  if (src == "-") return STDIN_FILENO;
+  if (src.rfind("tcp:", 0) == 0) {
+    const std::string rest = src.substr(4);
+    const size_t colon = rest.rfind(':');
+    if (colon == std::string::npos) {
+      err = "tcp source must be tcp:HOST:PORT";
+      return -1;
+    }
+    addrinfo hints{};
+    hints.ai_family = AF_UNSPEC;
+    hints.ai_socktype = SOCK_STREAM;
+    addrinfo* res = nullptr;
+    const std::string host = rest.substr(0, colon), port = rest.substr(colon + 1);
+    if (getaddrinfo(host.c_str(), port.c_str(), &hints, &res) != 0 || !res) {
+      err = "cannot resolve " + host + ":" + port;
+      return -1;
+    }
+    int fd = -1;
+    for (int attempt = 0; attempt < 50 && fd < 0; ++attempt) {  // QEMU may still be starting
+      fd = socket(res->ai_family, res->ai_socktype, res->ai_protocol);
+      if (fd >= 0 && connect(fd, res->ai_addr, res->ai_addrlen) != 0) {
+        close(fd);
+        fd = -1;
+        usleep(100000);
+      }
+    }
+    freeaddrinfo(res);
+    if (fd < 0) err = "cannot connect to " + src + ": " + std::strerror(errno);
+    return fd;
+  }
+  const int fd = open(src.c_str(), O_RDONLY | O_NOCTTY);
+  if (fd < 0) {
+    err = "cannot open " + src + ": " + std::strerror(errno);
+    return -1;
+  }
+  if (isatty(fd)) {
+    termios t{};
+    if (tcgetattr(fd, &t) == 0) {
+      cfmakeraw(&t);
+      const speed_t sp = BaudFlag(baud);
+      if (!sp) {
+        err = "unsupported baud rate " + std::to_string(baud);
+        close(fd);
+        return -1;
+      }
+      cfsetispeed(&t, sp);
+      cfsetospeed(&t, sp);
+      t.c_cc[VMIN] = 0;
+      t.c_cc[VTIME] = 2;  // reads return after 0.2 s so --seconds is honoured
+      tcsetattr(fd, TCSANOW, &t);
+    }
+  }
+  return fd;
+}
+
+}  // namespace
+
+int CmdListen(int argc, char** argv) {
+  if (argc < 2 || !std::strcmp(argv[1], "--help")) return ListenUsage();
+  std::string source = argv[1], csv_path, status_path;
+  long baud = 921600;
+  double seconds = 0;
+  bool quiet = false;
+  for (int i = 2; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--csv" && i + 1 < argc) {
+      csv_path = argv[++i];
+    } else if (a == "--status-csv" && i + 1 < argc) {
+      status_path = argv[++i];
+    } else if (a == "--baud" && i + 1 < argc) {
+      baud = std::strtol(argv[++i], nullptr, 10);
+    } else if (a == "--seconds" && i + 1 < argc) {
+      seconds = std::strtod(argv[++i], nullptr);
+    } else if (a == "--quiet") {
+      quiet = true;
+    } else {
+      return ListenUsage();
+    }
+  }
+  std::string err;
+  const int fd = OpenSource(source, baud, err);
+  if (fd < 0) {
+    std::fprintf(stderr, "ballvision listen: %s\n", err.c_str());
+    return 1;
+  }
+  std::ofstream csv, status_csv;
+  if (!csv_path.empty()) {
+    csv.open(csv_path);
+    if (!csv) {
+      std::fprintf(stderr, "ballvision listen: cannot write %s\n", csv_path.c_str());
+      return 1;
+    }
+    csv << StatesCsvHeader(true);
+  }
+  if (!status_path.empty()) {
+    status_csv.open(status_path);
+    status_csv << "seq,uptime_us,frames_processed,frame_rate_hz,frames_dropped,deadline_overruns,"
+                  "packets_dropped,pairs_omni_missing,pairs_persp_missing,pairs_out_of_sync,"
+                  "pairs_out_of_order,pairs_torn,calibration_id,lut_id,calibration_state,"
+                  "lut_state,rx_errors,command_errors,pipeline_errors,last_proc_us,max_proc_us,"
+                  "fault_flags\n";
+  }
+  protocol::Decoder decoder;
+  protocol::FrameView frame;
+  uint32_t balls = 0, statuses = 0, others = 0, bad_payloads = 0, seq_gaps = 0;
+  bool have_seq = false;
+  uint32_t last_seq = 0;
+  const auto start = std::chrono::steady_clock::now();
+  uint8_t buf[4096];
+  for (;;) {
+    if (seconds > 0 && std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
+                               .count() > seconds) {
+      break;
+    }
+    const ssize_t n = read(fd, buf, sizeof buf);
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) {
+      std::fprintf(stderr, "ballvision listen: read failed: %s\n", std::strerror(errno));
+      break;
+    }
+    if (n == 0) {
+      if (isatty(fd)) continue;
+      break;  // end of file / socket closed
+    }
+    for (ssize_t i = 0; i < n; ++i) {
+      if (!decoder.Push(buf[i], frame)) continue;
+      if (have_seq && frame.seq != last_seq + 1) ++seq_gaps;
+      have_seq = true;
+      last_seq = frame.seq;
+      if (frame.type == protocol::MsgType::kBallState) {
+        BallState s;
+        if (!protocol::ParseBallState(frame.payload, s).ok()) {
+          ++bad_payloads;
+          continue;
+        }
+        ++balls;
+        if (csv.is_open()) csv << StatesCsvRow(frame.seq, s, true);
+        if (!quiet && balls % 10 == 1) {
+          std::printf("ball  seq %6u t %10.3f s  %-5s  x %7.3f y %7.3f z %6.3f  v %6.2f %6.2f "
+                      "%6.2f  %-8s gap %.3f\n",
+                      frame.seq, s.t_us * 1e-6, s.found ? "found" : "-", s.x_m, s.y_m, s.z_m,
+                      s.vx_mps, s.vy_mps, s.vz_mps, BallModeName(s.mode), s.ray_gap_m);
+        }
+      } else if (frame.type == protocol::MsgType::kStatus) {
+        protocol::StatusReport st;
+        if (!protocol::ParseStatus(frame.payload, st).ok()) {
+          ++bad_payloads;
+          continue;
+        }
+        ++statuses;
+        if (status_csv.is_open()) {
+          status_csv << frame.seq << ',' << st.uptime_us << ',' << st.frames_processed << ','
+                     << st.frame_rate_mhz / 1000.0 << ',' << st.frames_dropped << ','
+                     << st.deadline_overruns << ',' << st.packets_dropped << ','
+                     << st.pairs_omni_missing << ',' << st.pairs_persp_missing << ','
+                     << st.pairs_out_of_sync << ',' << st.pairs_out_of_order << ','
+                     << st.pairs_torn << ',' << st.calibration_id << ',' << st.lut_id << ','
+                     << int(st.calibration_state) << ',' << int(st.lut_state) << ','
+                     << st.rx_errors << ',' << st.command_errors << ',' << st.pipeline_errors
+                     << ',' << st.last_proc_us << ',' << st.max_proc_us << ',' << st.fault_flags
+                     << '\n';
+        }
+        if (!quiet) {
+          std::printf("status seq %5u up %8.3f s  frames %6u  %.1f Hz  dropped %u  overruns %u  "
+                      "pkts dropped %u  calib %s lut %s  proc %u us (max %u)\n",
+                      frame.seq, st.uptime_us * 1e-6, st.frames_processed,
+                      st.frame_rate_mhz / 1000.0, st.frames_dropped, st.deadline_overruns,
+                      st.packets_dropped, st.calibration_state == 0 ? "ok" : "MISSING/CORRUPT",
+                      st.lut_state == 0 ? "ok" : "MISSING/CORRUPT", st.last_proc_us,
+                      st.max_proc_us);
+        }
+      } else {
+        ++others;
+      }
+    }
+  }
+  if (fd != STDIN_FILENO) close(fd);
+  const auto& ds = decoder.stats();
+  std::printf("summary: ball_states=%u status=%u other=%u bad_payloads=%u seq_gaps=%u "
+              "decoder_errors=%u (crc %u, cobs %u, oversize %u, short %u, version %u, length %u)\n",
+              balls, statuses, others, bad_payloads, seq_gaps, ds.errors(), ds.crc_errors,
+              ds.cobs_errors, ds.oversize, ds.short_frames, ds.version_errors, ds.length_errors);
+  return (balls + statuses) > 0 ? 0 : 1;
 }
 
 }  // namespace bv::cli

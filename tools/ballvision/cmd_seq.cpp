@@ -1,12 +1,118 @@
-#include <cstdio>
+// ballvision seq: inspect a captured sequence or convert it to raw .yuyv (what the QEMU board
+// reads through semihosting).
+#include <sys/stat.h>
 
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "hal/host/sequence.h"
 #include "tools/ballvision/commands.h"
 
 namespace bv::cli {
+namespace {
 
-int CmdSeq(int, char** argv) {
-  std::fprintf(stderr, "ballvision %s: not implemented yet\n", argv[0]);
-  return 1;
+int SeqUsage() {
+  std::fprintf(stderr,
+               "usage: ballvision seq info SEQ\n"
+               "       ballvision seq to-raw SEQ OUT_DIR [--first N] [--count M]\n"
+               "  to-raw writes OUT_DIR/frames.csv and one 640x480 .yuyv per image\n");
+  return 2;
+}
+
+int Info(const std::string& dir) {
+  host::Sequence seq;
+  std::string err;
+  if (!host::LoadSequence(dir, seq, err)) {
+    std::fprintf(stderr, "ballvision seq: %s\n", err.c_str());
+    return 1;
+  }
+  size_t omni = 0, persp = 0;
+  for (const auto& e : seq.entries) {
+    omni += !e.omni_path.empty();
+    persp += !e.persp_path.empty();
+  }
+  const double span_s = (seq.entries.back().t_us - seq.entries.front().t_us) * 1e-6;
+  std::printf("%s: %zu frames (%zu omni, %zu persp), %.3f s, %.1f Hz\n", dir.c_str(),
+              seq.entries.size(), omni, persp, span_s,
+              seq.entries.size() > 1 ? (seq.entries.size() - 1) / span_s : 0.0);
+  return 0;
+}
+
+int ToRaw(const std::string& dir, const std::string& out_dir, size_t first, size_t count) {
+  host::Sequence seq;
+  std::string err;
+  if (!host::LoadSequence(dir, seq, err)) {
+    std::fprintf(stderr, "ballvision seq: %s\n", err.c_str());
+    return 1;
+  }
+  if (first >= seq.entries.size()) {
+    std::fprintf(stderr, "ballvision seq: --first %zu is past the last of %zu frames\n", first,
+                 seq.entries.size());
+    return 1;
+  }
+  mkdir(out_dir.c_str(), 0755);
+  std::ofstream csv(out_dir + "/frames.csv");
+  if (!csv) {
+    std::fprintf(stderr, "ballvision seq: cannot write %s/frames.csv\n", out_dir.c_str());
+    return 1;
+  }
+  csv << "index,t_us,omni_file,persp_file\n";
+  const size_t end = std::min(seq.entries.size(), first + count);
+  std::vector<uint8_t> buf;
+  for (size_t i = first; i < end; ++i) {
+    const auto& e = seq.entries[i];
+    std::string names[2];
+    const std::string* paths[2] = {&e.omni_path, &e.persp_path};
+    for (int c = 0; c < 2; ++c) {
+      if (paths[c]->empty()) continue;
+      int w = 0, h = 0;
+      if (!host::LoadYuyv(*paths[c], buf, w, h, err)) {
+        std::fprintf(stderr, "ballvision seq: %s\n", err.c_str());
+        return 1;
+      }
+      if (w != 640 || h != 480) {
+        std::fprintf(stderr, "ballvision seq: %s is %dx%d, expected 640x480\n", paths[c]->c_str(),
+                     w, h);
+        return 1;
+      }
+      names[c] = std::string(c ? "persp_" : "omni_") + std::to_string(e.index) + ".yuyv";
+      if (!host::SaveYuyv(out_dir + "/" + names[c], buf.data(), w, h, err)) {
+        std::fprintf(stderr, "ballvision seq: %s\n", err.c_str());
+        return 1;
+      }
+    }
+    csv << e.index << ',' << e.t_us << ',' << names[0] << ',' << names[1] << '\n';
+  }
+  std::printf("wrote %zu frames to %s\n", end - first, out_dir.c_str());
+  return csv.good() ? 0 : 1;
+}
+
+}  // namespace
+
+int CmdSeq(int argc, char** argv) {
+  if (argc < 3) return SeqUsage();
+  const std::string sub = argv[1];
+  if (sub == "info" && argc == 3) return Info(argv[2]);
+  if (sub == "to-raw" && argc >= 4) {
+    size_t first = 0, count = static_cast<size_t>(-1);
+    for (int i = 4; i < argc; ++i) {
+      const std::string a = argv[i];
+      if ((a == "--first" || a == "--count") && i + 1 < argc) {
+        char* end = nullptr;
+        const unsigned long long v = std::strtoull(argv[++i], &end, 10);
+        if (!end || *end) return SeqUsage();
+        (a == "--first" ? first : count) = static_cast<size_t>(v);
+      } else {
+        return SeqUsage();
+      }
+    }
+    return ToRaw(argv[2], argv[3], first, count);
+  }
+  return SeqUsage();
 }
 
 }  // namespace bv::cli

@@ -1,0 +1,259 @@
+#include "core/protocol/protocol.h"
+
+#include <cmath>
+#include <cstring>
+
+#include "core/common/bytes.h"
+#include "core/common/crc32.h"
+
+namespace bv::protocol {
+namespace {
+
+// Any change to a payload layout must change this text (and so the schema hash).
+constexpr char kSchema[] =
+    "ball:t_us u64,flags u16,mode u8,found u8,x y z f32,vx vy vz f32,ray_gap f32,"
+    "omni_u omni_v f32,persp_u persp_v f32,t_bounce_us u64,bounce_x bounce_y f32,"
+    "predict_ahead_us u32,px py pz f32,proc_us u32;"
+    "status:uptime_us u64,frames_processed frame_rate_mhz frames_dropped deadline_overruns "
+    "packets_dropped pairs_omni_missing pairs_persp_missing pairs_out_of_sync pairs_out_of_order "
+    "pairs_torn calibration_id lut_id u32,calibration_state lut_state u8,reserved u16,"
+    "rx_errors command_errors pipeline_errors last_proc_us max_proc_us fault_flags u32";
+
+bool Finite(float v) { return std::isfinite(v); }
+
+}  // namespace
+
+uint16_t SchemaHash() {
+  static const uint16_t hash = static_cast<uint16_t>(
+      Crc32({reinterpret_cast<const uint8_t*>(kSchema), sizeof(kSchema) - 1}) & 0xFFFFu);
+  return hash;
+}
+
+Result<size_t> CobsEncode(std::span<const uint8_t> in, std::span<uint8_t> out) {
+  size_t o = 0;
+  size_t code_pos = 0;
+  uint8_t code = 1;
+  if (out.empty()) return Status(StatusCode::kResourceExhausted, "cobs: output too small");
+  o = 1;  // room for the first code byte
+  for (uint8_t b : in) {
+    if (b == 0) {
+      out[code_pos] = code;
+      code_pos = o++;
+      code = 1;
+      if (o > out.size()) return Status(StatusCode::kResourceExhausted, "cobs: output too small");
+      continue;
+    }
+    if (o >= out.size()) return Status(StatusCode::kResourceExhausted, "cobs: output too small");
+    out[o++] = b;
+    if (++code == 0xFF) {
+      out[code_pos] = code;
+      code_pos = o++;
+      code = 1;
+      if (o > out.size()) return Status(StatusCode::kResourceExhausted, "cobs: output too small");
+    }
+  }
+  out[code_pos] = code;
+  return o;
+}
+
+Result<size_t> CobsDecode(std::span<const uint8_t> in, std::span<uint8_t> out) {
+  size_t i = 0, o = 0;
+  while (i < in.size()) {
+    const uint8_t code = in[i++];
+    if (code == 0) return Status(StatusCode::kDataLoss, "cobs: zero byte inside a frame");
+    const size_t run = code - 1u;
+    if (run > in.size() - i) return Status(StatusCode::kDataLoss, "cobs: code past end of frame");
+    if (run > out.size() - o) return Status(StatusCode::kResourceExhausted, "cobs: output too small");
+    for (size_t k = 0; k < run; ++k) {
+      if (in[i] == 0) return Status(StatusCode::kDataLoss, "cobs: zero byte inside a frame");
+      out[o++] = in[i++];
+    }
+    if (code != 0xFF && i < in.size()) {
+      if (o >= out.size()) return Status(StatusCode::kResourceExhausted, "cobs: output too small");
+      out[o++] = 0;
+    }
+  }
+  return o;
+}
+
+Result<size_t> EncodeFrame(MsgType type, uint32_t seq, std::span<const uint8_t> payload,
+                           std::span<uint8_t> out) {
+  if (payload.size() > kMaxPayloadBytes) {
+    return Status(StatusCode::kInvalidArgument, "protocol: payload larger than 1024 bytes");
+  }
+  uint8_t raw[kMaxRawFrameBytes];
+  ByteWriter w(raw);
+  w.U8(kVersion);
+  w.U8(static_cast<uint8_t>(type));
+  w.U16(SchemaHash());
+  w.U32(seq);
+  w.U16(static_cast<uint16_t>(payload.size()));
+  w.Bytes(payload);
+  w.U32(Crc32(w.written()));
+  auto n = CobsEncode(w.written(), out);
+  if (!n.ok()) return n.status();
+  if (*n >= out.size()) return Status(StatusCode::kResourceExhausted, "protocol: no room for 0x00");
+  out[*n] = 0;
+  return *n + 1;
+}
+
+Result<size_t> EncodeBallState(const BallState& s, uint32_t seq, std::span<uint8_t> out) {
+  uint8_t p[kBallStatePayloadBytes];
+  ByteWriter w(p);
+  w.U64(s.t_us);
+  w.U16(s.flags);
+  w.U8(static_cast<uint8_t>(s.mode));
+  w.U8(s.found ? 1 : 0);
+  w.F32(s.x_m), w.F32(s.y_m), w.F32(s.z_m);
+  w.F32(s.vx_mps), w.F32(s.vy_mps), w.F32(s.vz_mps);
+  w.F32(s.ray_gap_m);
+  w.F32(s.omni.u_px), w.F32(s.omni.v_px);
+  w.F32(s.persp.u_px), w.F32(s.persp.v_px);
+  w.U64(s.t_bounce_us);
+  w.F32(s.bounce_x_m), w.F32(s.bounce_y_m);
+  w.U32(s.predict_ahead_us);
+  w.F32(s.px_m), w.F32(s.py_m), w.F32(s.pz_m);
+  w.U32(s.proc_us);
+  static_assert(sizeof(p) == kBallStatePayloadBytes);
+  if (w.size() != kBallStatePayloadBytes) return Status(StatusCode::kInternal, "ball payload size");
+  return EncodeFrame(MsgType::kBallState, seq, w.written(), out);
+}
+
+Status ParseBallState(std::span<const uint8_t> payload, BallState& out) {
+  if (payload.size() != kBallStatePayloadBytes) {
+    return Status(StatusCode::kInvalidArgument, "ball state: wrong payload length");
+  }
+  ByteReader r(payload);
+  BallState s;
+  s.t_us = r.U64();
+  s.flags = r.U16();
+  const uint8_t mode = r.U8();
+  const uint8_t found = r.U8();
+  s.x_m = r.F32(), s.y_m = r.F32(), s.z_m = r.F32();
+  s.vx_mps = r.F32(), s.vy_mps = r.F32(), s.vz_mps = r.F32();
+  s.ray_gap_m = r.F32();
+  s.omni.u_px = r.F32(), s.omni.v_px = r.F32();
+  s.persp.u_px = r.F32(), s.persp.v_px = r.F32();
+  s.t_bounce_us = r.U64();
+  s.bounce_x_m = r.F32(), s.bounce_y_m = r.F32();
+  s.predict_ahead_us = r.U32();
+  s.px_m = r.F32(), s.py_m = r.F32(), s.pz_m = r.F32();
+  s.proc_us = r.U32();
+  if (mode > static_cast<uint8_t>(BallMode::kBouncing)) {
+    return Status(StatusCode::kInvalidArgument, "ball state: unknown mode");
+  }
+  if (found > 1) return Status(StatusCode::kInvalidArgument, "ball state: found not 0/1");
+  s.mode = static_cast<BallMode>(mode);
+  s.found = found == 1;
+  s.omni.found = (s.flags & kFlagSeenOmni) != 0;
+  s.persp.found = (s.flags & kFlagSeenPersp) != 0;
+  if (s.found && !(Finite(s.x_m) && Finite(s.y_m) && Finite(s.z_m) && Finite(s.vx_mps) &&
+                   Finite(s.vy_mps) && Finite(s.vz_mps))) {
+    return Status(StatusCode::kInvalidArgument, "ball state: non-finite position or velocity");
+  }
+  out = s;
+  return Status();
+}
+
+Result<size_t> EncodeStatus(const StatusReport& s, uint32_t seq, std::span<uint8_t> out) {
+  uint8_t p[kStatusPayloadBytes];
+  ByteWriter w(p);
+  w.U64(s.uptime_us);
+  for (uint32_t v : {s.frames_processed, s.frame_rate_mhz, s.frames_dropped, s.deadline_overruns,
+                     s.packets_dropped, s.pairs_omni_missing, s.pairs_persp_missing,
+                     s.pairs_out_of_sync, s.pairs_out_of_order, s.pairs_torn, s.calibration_id,
+                     s.lut_id}) {
+    w.U32(v);
+  }
+  w.U8(s.calibration_state);
+  w.U8(s.lut_state);
+  w.U16(s.reserved);
+  for (uint32_t v : {s.rx_errors, s.command_errors, s.pipeline_errors, s.last_proc_us,
+                     s.max_proc_us, s.fault_flags}) {
+    w.U32(v);
+  }
+  if (w.size() != kStatusPayloadBytes) return Status(StatusCode::kInternal, "status payload size");
+  return EncodeFrame(MsgType::kStatus, seq, w.written(), out);
+}
+
+Status ParseStatus(std::span<const uint8_t> payload, StatusReport& out) {
+  if (payload.size() != kStatusPayloadBytes) {
+    return Status(StatusCode::kInvalidArgument, "status: wrong payload length");
+  }
+  ByteReader r(payload);
+  StatusReport s;
+  s.uptime_us = r.U64();
+  uint32_t* fields[] = {&s.frames_processed,    &s.frame_rate_mhz,     &s.frames_dropped,
+                        &s.deadline_overruns,   &s.packets_dropped,    &s.pairs_omni_missing,
+                        &s.pairs_persp_missing, &s.pairs_out_of_sync,  &s.pairs_out_of_order,
+                        &s.pairs_torn,          &s.calibration_id,     &s.lut_id};
+  for (uint32_t* f : fields) *f = r.U32();
+  s.calibration_state = r.U8();
+  s.lut_state = r.U8();
+  s.reserved = r.U16();
+  uint32_t* tail[] = {&s.rx_errors,    &s.command_errors, &s.pipeline_errors,
+                      &s.last_proc_us, &s.max_proc_us,    &s.fault_flags};
+  for (uint32_t* f : tail) *f = r.U32();
+  if (s.calibration_state > 2 || s.lut_state > 2) {
+    return Status(StatusCode::kInvalidArgument, "status: unknown blob state");
+  }
+  out = s;
+  return Status();
+}
+
+bool Decoder::Push(uint8_t byte, FrameView& out) {
+  if (byte != 0) {
+    if (len_ < sizeof(buf_)) {
+      buf_[len_++] = byte;
+    } else {
+      if (!overflow_) ++stats_.oversize;
+      overflow_ = true;
+      ++stats_.bytes_discarded;
+    }
+    return false;
+  }
+  const bool ok = !overflow_ && len_ > 0 && Finish(out);
+  if (!ok && !overflow_) stats_.bytes_discarded += static_cast<uint32_t>(len_);
+  len_ = 0;
+  overflow_ = false;
+  return ok;
+}
+
+bool Decoder::Finish(FrameView& out) {
+  auto n = CobsDecode({buf_, len_}, raw_);
+  if (!n.ok()) {
+    ++stats_.cobs_errors;
+    return false;
+  }
+  if (*n < kHeaderBytes + kCrcBytes) {
+    ++stats_.short_frames;
+    return false;
+  }
+  const size_t body = *n - kCrcBytes;
+  ByteReader crc_reader({raw_ + body, kCrcBytes});
+  if (Crc32({raw_, body}) != crc_reader.U32()) {
+    ++stats_.crc_errors;
+    return false;
+  }
+  ByteReader r({raw_, body});
+  const uint8_t version = r.U8();
+  const uint8_t type = r.U8();
+  const uint16_t schema = r.U16();
+  const uint32_t seq = r.U32();
+  const uint16_t len = r.U16();
+  if (version != kVersion || schema != SchemaHash()) {
+    ++stats_.version_errors;
+    return false;
+  }
+  if (len != body - kHeaderBytes) {
+    ++stats_.length_errors;
+    return false;
+  }
+  out.type = static_cast<MsgType>(type);
+  out.seq = seq;
+  out.payload = {raw_ + kHeaderBytes, len};
+  ++stats_.frames_ok;
+  return true;
+}
+
+}  // namespace bv::protocol

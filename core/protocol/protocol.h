@@ -1,0 +1,131 @@
+#pragma once
+// Serial protocol between the coprocessor and the robot's main computer (docs/protocol.md).
+// A frame on the wire: COBS( header | payload | crc32(header|payload) ) 0x00
+//   header: version u8 | type u8 | schema u16 | seq u32 | payload_len u16   (10 bytes, LE)
+// COBS removes every 0x00 from the frame, so 0x00 marks frame ends and a receiver resyncs at
+// the next delimiter after any corruption.
+#include <cstddef>
+#include <cstdint>
+#include <span>
+
+#include "core/common/ball_state.h"
+#include "core/common/status.h"
+
+namespace bv::protocol {
+
+inline constexpr uint8_t kVersion = 1;
+inline constexpr size_t kHeaderBytes = 10;
+inline constexpr size_t kCrcBytes = 4;
+inline constexpr size_t kMaxPayloadBytes = 1024;
+inline constexpr size_t kMaxRawFrameBytes = kHeaderBytes + kMaxPayloadBytes + kCrcBytes;
+// COBS adds one byte per 254 plus the leading code byte; +1 for the delimiter.
+inline constexpr size_t kMaxWireFrameBytes = kMaxRawFrameBytes + kMaxRawFrameBytes / 254 + 2;
+
+enum class MsgType : uint8_t {
+  kBallState = 0x01,
+  kStatus = 0x02,
+  kAck = 0x10,
+  kError = 0x11,
+  kRequestStatus = 0x20,
+  kSetParam = 0x21,
+  kUploadBegin = 0x22,
+  kUploadChunk = 0x23,
+  kUploadCommit = 0x24,
+};
+
+/// 16-bit hash of the payload layouts below; bumped automatically when they change, so a
+/// listener built from another revision refuses the stream instead of misreading it.
+uint16_t SchemaHash();
+
+inline constexpr size_t kBallStatePayloadBytes = 92;
+inline constexpr size_t kStatusPayloadBytes = 84;
+
+/// Health of the coprocessor, sent at least once per second.
+struct StatusReport {
+  uint64_t uptime_us = 0;
+  uint32_t frames_processed = 0;
+  uint32_t frame_rate_mhz = 0;  // millihertz over the last report interval
+  uint32_t frames_dropped = 0;  // overwritten in DMA before the loop got to them
+  uint32_t deadline_overruns = 0;
+  uint32_t packets_dropped = 0;  // UART backpressure
+  uint32_t pairs_omni_missing = 0;
+  uint32_t pairs_persp_missing = 0;
+  uint32_t pairs_out_of_sync = 0;
+  uint32_t pairs_out_of_order = 0;
+  uint32_t pairs_torn = 0;
+  uint32_t calibration_id = 0;
+  uint32_t lut_id = 0;
+  uint8_t calibration_state = 0;  // BlobState
+  uint8_t lut_state = 0;          // BlobState
+  uint16_t reserved = 0;
+  uint32_t rx_errors = 0;      // corrupt frames received from the main computer
+  uint32_t command_errors = 0; // well-formed but refused commands
+  uint32_t pipeline_errors = 0;
+  uint32_t last_proc_us = 0;
+  uint32_t max_proc_us = 0;
+  uint32_t fault_flags = 0;    // board-specific fault bits (watchdog, camera stalled, ...)
+};
+
+enum class BlobState : uint8_t { kOk = 0, kMissing = 1, kCorrupt = 2 };
+
+// --- encoding: whole wire frames (COBS + delimiter), ready for Uart::Write ---
+
+/// Encodes any payload. Errors: kInvalidArgument (payload > kMaxPayloadBytes),
+/// kResourceExhausted (`out` smaller than the wire frame).
+Result<size_t> EncodeFrame(MsgType type, uint32_t seq, std::span<const uint8_t> payload,
+                           std::span<uint8_t> out);
+Result<size_t> EncodeBallState(const BallState& state, uint32_t seq, std::span<uint8_t> out);
+Result<size_t> EncodeStatus(const StatusReport& status, uint32_t seq, std::span<uint8_t> out);
+
+// --- decoding ---
+
+struct FrameView {
+  MsgType type{};
+  uint32_t seq = 0;
+  std::span<const uint8_t> payload;  // valid until the next Decoder::Push
+};
+
+/// Payload parsers; kInvalidArgument if the length is wrong or a value is impossible (NaN
+/// position, unknown mode).
+Status ParseBallState(std::span<const uint8_t> payload, BallState& out);
+Status ParseStatus(std::span<const uint8_t> payload, StatusReport& out);
+
+struct DecoderStats {
+  uint32_t frames_ok = 0;
+  uint32_t crc_errors = 0;
+  uint32_t cobs_errors = 0;     // malformed COBS (code byte pointing past the frame)
+  uint32_t oversize = 0;        // frame longer than the receive buffer: discarded to the next 0x00
+  uint32_t short_frames = 0;    // shorter than header + CRC
+  uint32_t version_errors = 0;  // other protocol version or schema
+  uint32_t length_errors = 0;   // header length disagrees with the frame
+  uint32_t bytes_discarded = 0;
+  uint32_t errors() const {
+    return crc_errors + cobs_errors + oversize + short_frames + version_errors + length_errors;
+  }
+};
+
+/// Streaming decoder: feed bytes as they arrive; a complete, verified frame is returned at
+/// each delimiter. Never allocates; a corrupt frame costs at most that frame.
+class Decoder {
+ public:
+  /// Consumes one byte. Returns true when `out` holds a verified frame.
+  bool Push(uint8_t byte, FrameView& out);
+  const DecoderStats& stats() const { return stats_; }
+
+ private:
+  bool Finish(FrameView& out);
+  uint8_t buf_[kMaxWireFrameBytes] = {};
+  uint8_t raw_[kMaxRawFrameBytes] = {};
+  size_t len_ = 0;
+  bool overflow_ = false;
+  DecoderStats stats_;
+};
+
+// --- COBS primitives (exposed for tests and the fuzzers) ---
+/// Encodes `in` (no delimiter appended). Returns the encoded size or kResourceExhausted.
+Result<size_t> CobsEncode(std::span<const uint8_t> in, std::span<uint8_t> out);
+/// Decodes one frame without its delimiter. kDataLoss for malformed input (a zero byte, a code
+/// pointing past the end), kResourceExhausted if `out` is too small.
+Result<size_t> CobsDecode(std::span<const uint8_t> in, std::span<uint8_t> out);
+
+}  // namespace bv::protocol

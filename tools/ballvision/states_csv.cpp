@@ -1,0 +1,54 @@
+#include "tools/ballvision/states_csv.h"
+
+#include <cstdio>
+
+namespace bv::cli {
+namespace {
+
+void Append(std::string& out, const char* fmt, double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, fmt, v);
+  out += buf;
+}
+
+}  // namespace
+
+std::string StatesCsvHeader(bool predict) {
+  std::string h =
+      "index,t_us,found,x,y,z,vx,vy,vz,mode,omni_u,omni_v,persp_u,persp_v,ray_gap,t_bounce_us,"
+      "proc_us";
+  if (predict) h += ",px,py,pz";
+  return h + "\n";
+}
+
+std::string StatesCsvRow(int64_t index, const BallState& s, bool predict, bool with_proc) {
+  std::string r = std::to_string(index) + "," + std::to_string(s.t_us) + "," +
+                  (s.found ? "1" : "0");
+  for (float v : {s.x_m, s.y_m, s.z_m, s.vx_mps, s.vy_mps, s.vz_mps}) {
+    r += ",";
+    if (s.found) Append(r, "%.5f", v);
+  }
+  r += ",";
+  r += BallModeName(s.mode);
+  for (const BallDetection* d : {&s.omni, &s.persp}) {
+    for (float v : {d->u_px, d->v_px}) {
+      r += ",";
+      if (d->found) Append(r, "%.3f", v);
+    }
+  }
+  r += ",";
+  if (s.ray_gap_m >= 0) Append(r, "%.5f", s.ray_gap_m);
+  r += ",";
+  if (s.flags & kFlagHasBounce) r += std::to_string(s.t_bounce_us);
+  r += ",";
+  if (with_proc) r += std::to_string(s.proc_us);
+  if (predict) {
+    for (float v : {s.px_m, s.py_m, s.pz_m}) {
+      r += ",";
+      if (s.flags & kFlagHasPrediction) Append(r, "%.5f", v);
+    }
+  }
+  return r + "\n";
+}
+
+}  // namespace bv::cli

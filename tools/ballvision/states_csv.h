@@ -1,0 +1,19 @@
+#pragma once
+// The ball-state CSV of DESIGN.md §4, written by `run` and `listen` with one formatter so their
+// outputs compare byte for byte. Column names are a contract: keep them stable.
+#include <cstdint>
+#include <string>
+
+#include "core/common/ball_state.h"
+
+namespace bv::cli {
+
+/// index,t_us,found,x,y,z,vx,vy,vz,mode,omni_u,omni_v,persp_u,persp_v,ray_gap,t_bounce_us,proc_us
+/// (+ px,py,pz with `predict`).
+std::string StatesCsvHeader(bool predict);
+/// One row. Positions in metres with 5 decimals, pixels with 3; image centres empty when that
+/// camera did not see the ball; t_bounce_us empty when no bounce is predicted. `with_proc`
+/// false leaves proc_us empty (it is a wall-clock figure that differs between platforms).
+std::string StatesCsvRow(int64_t index, const BallState& s, bool predict, bool with_proc = true);
+
+}  // namespace bv::cli
