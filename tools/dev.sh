@@ -1,0 +1,67 @@
+#!/usr/bin/env bash
+# One entry point for people and CI:
+#   tools/dev.sh deps    install what the project needs (Debian 12, apt-get, idempotent)
+#   tools/dev.sh demo    deps + host build + `ballvision demo` (the main job, no external data)
+#   tools/dev.sh test    deps + build every preset + run every test suite (host, sanitizers, QEMU)
+#   tools/dev.sh build   build every preset without testing
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+PACKAGES=(
+  build-essential cmake ninja-build git pkg-config
+  libeigen3-dev libgtest-dev libgmock-dev googletest libbenchmark-dev
+  libopencv-dev libpng-dev nlohmann-json3-dev
+  gcc-arm-none-eabi binutils-arm-none-eabi libnewlib-arm-none-eabi libstdc++-arm-none-eabi-newlib
+  qemu-system-arm
+  python3 python3-numpy python3-matplotlib python3-serial
+  clang libclang-rt-14-dev cppcheck clang-tidy clang-format
+)
+
+deps() {
+  local missing=()
+  for p in "${PACKAGES[@]}"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+  done
+  if ((${#missing[@]})); then
+    echo "== installing: ${missing[*]}"
+    local sudo=""
+    [ "$(id -u)" -eq 0 ] || sudo="sudo"
+    $sudo apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends \
+      "${missing[@]}" >/dev/null
+  fi
+}
+
+build_preset() {
+  cmake --preset "$1" >/dev/null
+  cmake --build --preset "$1"
+}
+
+case "${1:-}" in
+  deps) deps ;;
+  demo)
+    deps
+    build_preset host
+    shift
+    ./build/host/tools/ballvision demo "$@"
+    ;;
+  build)
+    deps
+    for p in host host-sanitize fw-qemu fw-stm32h7; do build_preset "$p"; done
+    ;;
+  test)
+    deps
+    for p in host host-sanitize fw-qemu fw-stm32h7; do
+      echo "== build $p"
+      build_preset "$p"
+    done
+    for p in host host-sanitize fw-qemu; do
+      echo "== test $p"
+      ctest --preset "$p"
+    done
+    ;;
+  *)
+    sed -n '2,6p' "$0"
+    exit 2
+    ;;
+esac
