@@ -1,5 +1,8 @@
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
+#include <string>
 #include <random>
 #include <vector>
 
@@ -189,6 +192,44 @@ TEST(Protocol, OversizeGarbageIsDiscardedAndDecoderRecovers) {
   for (uint8_t b : wire) got |= d.Push(b, f);
   EXPECT_TRUE(got);
   EXPECT_EQ(f.seq, 9u);
+}
+
+}  // namespace
+}  // namespace bv::protocol
+
+namespace bv::protocol {
+namespace {
+
+// The byte-level example of docs/protocol.md and the fixture the Python decoder is tested on:
+// the encoder must reproduce it exactly (a layout change must update both, knowingly).
+TEST(Protocol, GoldenStreamMatchesCommittedFixture) {
+  std::vector<uint8_t> stream(2 * kMaxWireFrameBytes);
+  BallState s = SampleState(1000000);
+  s.flags |= kFlagHasBounce;
+  s.t_bounce_us = 1250000;
+  auto a = EncodeBallState(s, 41, stream);
+  ASSERT_TRUE(a.ok());
+  StatusReport st;
+  st.uptime_us = 1000000;
+  st.frames_processed = 30;
+  st.frame_rate_mhz = 30000;
+  st.calibration_id = 0x1234;
+  auto b = EncodeStatus(st, 42, std::span(stream).subspan(*a));
+  ASSERT_TRUE(b.ok());
+  stream.resize(*a + *b);
+  const std::string path = std::string(BV_TEST_DATA_DIR) + "/protocol_golden.bin";
+  FILE* f = std::fopen(path.c_str(), "rb");
+  if (!f && std::getenv("BV_REGENERATE_GOLDEN")) {
+    f = std::fopen(path.c_str(), "wb");
+    std::fwrite(stream.data(), 1, stream.size(), f);
+    std::fclose(f);
+    GTEST_SKIP() << "regenerated " << path;
+  }
+  ASSERT_NE(f, nullptr) << path;
+  std::vector<uint8_t> golden(4096);
+  golden.resize(std::fread(golden.data(), 1, golden.size(), f));
+  std::fclose(f);
+  EXPECT_EQ(golden, stream);
 }
 
 }  // namespace

@@ -1,0 +1,217 @@
+"""Pure-Python decoder for the ballvision serial protocol (mirrors core/protocol)."""
+import math
+import struct
+import zlib
+from dataclasses import dataclass
+from typing import Iterator, List, Optional, Tuple
+
+VERSION = 1
+MSG_BALL_STATE = 0x01
+MSG_STATUS = 0x02
+HEADER = struct.Struct("<BBHIH")
+MAX_PAYLOAD = 1024
+
+# Must equal the text in core/protocol/protocol.cpp: the hash guards against layout drift.
+_SCHEMA = (
+    "ball:t_us u64,flags u16,mode u8,found u8,x y z f32,vx vy vz f32,ray_gap f32,"
+    "omni_u omni_v f32,persp_u persp_v f32,t_bounce_us u64,bounce_x bounce_y f32,"
+    "predict_ahead_us u32,px py pz f32,proc_us u32;"
+    "status:uptime_us u64,frames_processed frame_rate_mhz frames_dropped deadline_overruns "
+    "packets_dropped pairs_omni_missing pairs_persp_missing pairs_out_of_sync pairs_out_of_order "
+    "pairs_torn calibration_id lut_id u32,calibration_state lut_state u8,reserved u16,"
+    "rx_errors command_errors pipeline_errors last_proc_us max_proc_us fault_flags u32")
+SCHEMA_HASH = zlib.crc32(_SCHEMA.encode()) & 0xFFFF
+
+MODES = ("none", "rolling", "flying", "bouncing")
+FLAG_SEEN_OMNI, FLAG_SEEN_PERSP, FLAG_HAS_BOUNCE, FLAG_HAS_PREDICTION = 1, 2, 1 << 11, 1 << 12
+
+_BALL = struct.Struct("<QHBB3f3ff2f2fQ2fI3fI")
+_STATUS = struct.Struct("<Q12IBBH6I")
+assert _BALL.size == 92 and _STATUS.size == 84
+
+
+@dataclass
+class BallState:
+    seq: int
+    t_us: int
+    flags: int
+    mode: str
+    found: bool
+    x: float
+    y: float
+    z: float
+    vx: float
+    vy: float
+    vz: float
+    ray_gap: float
+    omni_u: Optional[float]
+    omni_v: Optional[float]
+    persp_u: Optional[float]
+    persp_v: Optional[float]
+    t_bounce_us: Optional[int]
+    bounce_x: float
+    bounce_y: float
+    predict_ahead_us: int
+    px: float
+    py: float
+    pz: float
+    proc_us: int
+
+
+@dataclass
+class StatusReport:
+    seq: int
+    uptime_us: int
+    frames_processed: int
+    frame_rate_hz: float
+    frames_dropped: int
+    deadline_overruns: int
+    packets_dropped: int
+    pairs_omni_missing: int
+    pairs_persp_missing: int
+    pairs_out_of_sync: int
+    pairs_out_of_order: int
+    pairs_torn: int
+    calibration_id: int
+    lut_id: int
+    calibration_state: int
+    lut_state: int
+    rx_errors: int
+    command_errors: int
+    pipeline_errors: int
+    last_proc_us: int
+    max_proc_us: int
+    fault_flags: int
+
+
+def cobs_encode(data: bytes) -> bytes:
+    out = bytearray([0])
+    code_pos, code = 0, 1
+    for b in data:
+        if b == 0:
+            out[code_pos] = code
+            code_pos, code = len(out), 1
+            out.append(0)
+            continue
+        out.append(b)
+        code += 1
+        if code == 0xFF:
+            out[code_pos] = code
+            code_pos, code = len(out), 1
+            out.append(0)
+    out[code_pos] = code
+    return bytes(out)
+
+
+def cobs_decode(data: bytes) -> Optional[bytes]:
+    out = bytearray()
+    i = 0
+    while i < len(data):
+        code = data[i]
+        i += 1
+        if code == 0 or i + code - 1 > len(data):
+            return None
+        run = data[i:i + code - 1]
+        if 0 in run:
+            return None
+        out += run
+        i += code - 1
+        if code != 0xFF and i < len(data):
+            out.append(0)
+    return bytes(out)
+
+
+def parse_ball_state(seq: int, payload: bytes) -> Optional[BallState]:
+    if len(payload) != _BALL.size:
+        return None
+    v = _BALL.unpack(payload)
+    (t_us, flags, mode, found, x, y, z, vx, vy, vz, gap, ou, ov, pu, pv, tb, bx, by, ahead,
+     px, py, pz, proc) = v
+    if mode >= len(MODES) or found > 1:
+        return None
+    if found and not all(math.isfinite(a) for a in (x, y, z, vx, vy, vz)):
+        return None
+    seen_o, seen_p = flags & FLAG_SEEN_OMNI, flags & FLAG_SEEN_PERSP
+    return BallState(seq, t_us, flags, MODES[mode], bool(found), x, y, z, vx, vy, vz, gap,
+                     ou if seen_o else None, ov if seen_o else None,
+                     pu if seen_p else None, pv if seen_p else None,
+                     tb if flags & FLAG_HAS_BOUNCE else None, bx, by, ahead, px, py, pz, proc)
+
+
+def parse_status(seq: int, payload: bytes) -> Optional[StatusReport]:
+    if len(payload) != _STATUS.size:
+        return None
+    v = list(_STATUS.unpack(payload))
+    v[2] = v[2] / 1000.0  # millihertz -> Hz
+    if v[13] > 2 or v[14] > 2:
+        return None
+    del v[15]  # reserved
+    return StatusReport(seq, *v)
+
+
+class Decoder:
+    """Streaming decoder: feed() bytes, get verified messages; corrupt frames are counted."""
+
+    def __init__(self, max_frame: int = 2048):
+        self._buf = bytearray()
+        self._overflow = False
+        self.max_frame = max_frame
+        self.errors = {"crc": 0, "cobs": 0, "oversize": 0, "short": 0, "version": 0,
+                       "length": 0, "payload": 0}
+        self.frames_ok = 0
+
+    def feed(self, data: bytes) -> Iterator[object]:
+        for b in data:
+            if b != 0:
+                if len(self._buf) < self.max_frame:
+                    self._buf.append(b)
+                elif not self._overflow:
+                    self._overflow = True
+                    self.errors["oversize"] += 1
+                continue
+            frame, overflow = bytes(self._buf), self._overflow
+            self._buf.clear()
+            self._overflow = False
+            if overflow or not frame:
+                continue
+            msg = self._finish(frame)
+            if msg is not None:
+                yield msg
+
+    def _finish(self, frame: bytes):
+        raw = cobs_decode(frame)
+        if raw is None:
+            self.errors["cobs"] += 1
+            return None
+        if len(raw) < HEADER.size + 4:
+            self.errors["short"] += 1
+            return None
+        body, crc = raw[:-4], struct.unpack("<I", raw[-4:])[0]
+        if zlib.crc32(body) != crc:
+            self.errors["crc"] += 1
+            return None
+        version, mtype, schema, seq, length = HEADER.unpack(body[:HEADER.size])
+        if version != VERSION or schema != SCHEMA_HASH:
+            self.errors["version"] += 1
+            return None
+        payload = body[HEADER.size:]
+        if length != len(payload):
+            self.errors["length"] += 1
+            return None
+        self.frames_ok += 1
+        if mtype == MSG_BALL_STATE:
+            msg = parse_ball_state(seq, payload)
+        elif mtype == MSG_STATUS:
+            msg = parse_status(seq, payload)
+        else:
+            return (mtype, seq, payload)
+        if msg is None:
+            self.errors["payload"] += 1
+        return msg
+
+
+def encode_frame(mtype: int, seq: int, payload: bytes) -> bytes:
+    if len(payload) > MAX_PAYLOAD:
+        raise ValueError("payload larger than 1024 bytes")
+    body = HEADER.pack(VERSION, mtype, SCHEMA_HASH, seq, len(payload)) + payload
+    return cobs_encode(body + struct.pack("<I", zlib.crc32(body))) + b"\x00"
