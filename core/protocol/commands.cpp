@@ -1,0 +1,130 @@
+#include "core/protocol/commands.h"
+
+#include <cmath>
+
+#include "core/common/bytes.h"
+
+namespace bv::protocol {
+namespace {
+
+bool ValidTarget(uint8_t t) {
+  return t == static_cast<uint8_t>(UploadTarget::kCalibration) ||
+         t == static_cast<uint8_t>(UploadTarget::kLut);
+}
+
+}  // namespace
+
+CommandResult CommandHandler::Handle(const FrameView& frame, uint32_t reply_seq,
+                                     std::span<uint8_t> reply, size_t& reply_len) {
+  CommandResult result;
+  uint32_t detail = 0;
+  result.error = Dispatch(frame, result.send_status, detail);
+  result.reply_is_error = result.error != CommandError::kNone;
+  if (result.reply_is_error) ++errors_;
+  reply_len = 0;
+  if (frame.type == MsgType::kRequestStatus && !result.reply_is_error) return result;
+
+  uint8_t payload[10];
+  ByteWriter w(payload);
+  w.U8(static_cast<uint8_t>(frame.type));
+  w.U32(frame.seq);
+  if (result.reply_is_error) {
+    w.U8(static_cast<uint8_t>(result.error));
+    w.U32(detail);
+  }
+  auto n = EncodeFrame(result.reply_is_error ? MsgType::kError : MsgType::kAck, reply_seq,
+                       w.written(), reply);
+  if (n.ok()) reply_len = *n;
+  return result;
+}
+
+CommandError CommandHandler::Dispatch(const FrameView& frame, bool& send_status,
+                                      uint32_t& detail) {
+  const auto p = frame.payload;
+  switch (frame.type) {
+    case MsgType::kRequestStatus:
+      if (!p.empty()) return CommandError::kBadLength;
+      send_status = true;
+      return CommandError::kNone;
+    case MsgType::kSetParam: {
+      if (p.size() != 6) return CommandError::kBadLength;
+      ByteReader r(p);
+      const uint16_t id = r.U16();
+      const float value = r.F32();
+      detail = id;
+      if (!std::isfinite(value)) return CommandError::kBadValue;
+      const Status s = params_.SetParam(id, value);
+      if (s.code() == StatusCode::kNotFound) return CommandError::kUnknownParam;
+      return s.ok() ? CommandError::kNone : CommandError::kBadValue;
+    }
+    case MsgType::kUploadBegin:
+      return UploadBegin(p);
+    case MsgType::kUploadChunk: {
+      const CommandError e = UploadChunk(p);
+      detail = static_cast<uint32_t>(received_);  // lets the sender resume at the right offset
+      return e;
+    }
+    case MsgType::kUploadCommit:
+      return UploadCommit(p);
+    default:
+      detail = static_cast<uint32_t>(frame.type);
+      return CommandError::kUnknownCommand;
+  }
+}
+
+CommandError CommandHandler::UploadBegin(std::span<const uint8_t> p) {
+  if (p.size() != 9) return CommandError::kBadLength;
+  ByteReader r(p);
+  const uint8_t target = r.U8();
+  const uint32_t total = r.U32();
+  const uint32_t crc = r.U32();
+  if (!ValidTarget(target)) return CommandError::kBadTarget;
+  const auto t = static_cast<UploadTarget>(target);
+  if (total == 0 || total > uploads_.capacity(t)) return CommandError::kTooLarge;
+  if (uploading_) uploads_.Abort(target_);  // a new begin replaces an unfinished upload
+  uploading_ = false;
+  if (!uploads_.Begin(t, total).ok()) return CommandError::kStorageFailed;
+  uploading_ = true;
+  target_ = t;
+  total_len_ = total;
+  total_crc_ = crc;
+  received_ = 0;
+  return CommandError::kNone;
+}
+
+CommandError CommandHandler::UploadChunk(std::span<const uint8_t> p) {
+  if (p.size() < 6 || p.size() > 5 + kMaxChunkBytes) return CommandError::kBadLength;
+  ByteReader r(p);
+  const uint8_t target = r.U8();
+  const uint32_t offset = r.U32();
+  const auto data = p.subspan(5);
+  if (!ValidTarget(target)) return CommandError::kBadTarget;
+  if (!uploading_ || static_cast<UploadTarget>(target) != target_) return CommandError::kNoUpload;
+  if (offset != received_) return CommandError::kBadOffset;
+  if (data.size() > total_len_ - received_) return CommandError::kTooLarge;
+  if (!uploads_.Write(target_, offset, data).ok()) {
+    uploads_.Abort(target_);
+    uploading_ = false;
+    return CommandError::kStorageFailed;
+  }
+  received_ += data.size();
+  return CommandError::kNone;
+}
+
+CommandError CommandHandler::UploadCommit(std::span<const uint8_t> p) {
+  if (p.size() != 1) return CommandError::kBadLength;
+  if (!ValidTarget(p[0])) return CommandError::kBadTarget;
+  if (!uploading_ || static_cast<UploadTarget>(p[0]) != target_) return CommandError::kNoUpload;
+  if (received_ != total_len_) return CommandError::kIncomplete;
+  uploading_ = false;
+  const Status s = uploads_.Commit(target_, total_crc_);
+  if (!s.ok()) {
+    uploads_.Abort(target_);
+    return s.code() == StatusCode::kDataLoss || s.code() == StatusCode::kInvalidArgument
+               ? CommandError::kVerifyFailed
+               : CommandError::kStorageFailed;
+  }
+  return CommandError::kNone;
+}
+
+}  // namespace bv::protocol

@@ -1,0 +1,93 @@
+#pragma once
+// Commands from the main computer, parsed with the same care as everything else from outside:
+// every field checked, every command answered with an ack or an error code, nothing applied
+// until it is complete and verified.
+//   request status  (0x20): empty payload                  -> status packet (by the caller)
+//   set parameter   (0x21): id u16 | value f32              -> ack / error
+//   upload begin    (0x22): target u8 | total_len u32 | total_crc32 u32
+//   upload chunk    (0x23): target u8 | offset u32 | data (1..kMaxChunkBytes)
+//   upload commit   (0x24): target u8                       -> verified and activated, or error
+// Replies: ack (0x10): cmd_type u8 | cmd_seq u32
+//          error (0x11): cmd_type u8 | cmd_seq u32 | code u8 (CommandError) | detail u32
+#include <cstddef>
+#include <cstdint>
+#include <span>
+
+#include "core/common/status.h"
+#include "core/protocol/protocol.h"
+
+namespace bv::protocol {
+
+inline constexpr size_t kMaxChunkBytes = 512;
+
+enum class UploadTarget : uint8_t { kCalibration = 1, kLut = 2 };
+
+enum class CommandError : uint8_t {
+  kNone = 0,
+  kUnknownCommand = 1,
+  kBadLength = 2,       // payload length wrong for the command
+  kBadTarget = 3,       // unknown upload target
+  kNoUpload = 4,        // chunk / commit without a matching begin
+  kBadOffset = 5,       // chunk not contiguous with the previous one
+  kTooLarge = 6,        // total or chunk beyond capacity
+  kVerifyFailed = 7,    // complete upload's CRC or content check failed; old data kept
+  kStorageFailed = 8,   // storage refused the write; old data kept
+  kUnknownParam = 9,
+  kBadValue = 10,       // NaN or out of the parameter's range
+  kIncomplete = 11,     // commit before all bytes arrived
+};
+
+/// Where uploads go: the firmware implements it over the A/B blob store, tests with RAM.
+class UploadSink {
+ public:
+  virtual ~UploadSink() = default;
+  virtual size_t capacity(UploadTarget target) const = 0;
+  /// Prepares the inactive slot. Nothing visible changes until Commit succeeds.
+  virtual Status Begin(UploadTarget target, size_t total_len) = 0;
+  virtual Status Write(UploadTarget target, size_t offset, std::span<const uint8_t> data) = 0;
+  /// Verifies (CRC of all bytes == total_crc32, content parses) and activates.
+  virtual Status Commit(UploadTarget target, uint32_t total_crc32) = 0;
+  virtual void Abort(UploadTarget target) = 0;
+};
+
+/// Runtime parameters the main computer may set.
+class ParamSink {
+ public:
+  virtual ~ParamSink() = default;
+  /// kNotFound for an unknown id, kOutOfRange / kInvalidArgument for a bad value.
+  virtual Status SetParam(uint16_t id, float value) = 0;
+};
+
+struct CommandResult {
+  bool send_status = false;  // the caller must send a status packet
+  bool reply_is_error = false;
+  CommandError error = CommandError::kNone;
+};
+
+class CommandHandler {
+ public:
+  CommandHandler(UploadSink& uploads, ParamSink& params) : uploads_(uploads), params_(params) {}
+
+  /// Handles one verified frame from the Decoder and encodes the reply (ack or error) into
+  /// `reply` (a whole wire frame). Returns the reply's size in `reply_len` (0: no reply).
+  CommandResult Handle(const FrameView& frame, uint32_t reply_seq, std::span<uint8_t> reply,
+                       size_t& reply_len);
+  uint32_t errors() const { return errors_; }
+
+ private:
+  CommandError Dispatch(const FrameView& frame, bool& send_status, uint32_t& detail);
+  CommandError UploadBegin(std::span<const uint8_t> p);
+  CommandError UploadChunk(std::span<const uint8_t> p);
+  CommandError UploadCommit(std::span<const uint8_t> p);
+
+  UploadSink& uploads_;
+  ParamSink& params_;
+  bool uploading_ = false;
+  UploadTarget target_ = UploadTarget::kCalibration;
+  size_t total_len_ = 0;
+  size_t received_ = 0;
+  uint32_t total_crc_ = 0;
+  uint32_t errors_ = 0;
+};
+
+}  // namespace bv::protocol
