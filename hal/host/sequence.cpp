@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <iterator>
 #include <memory>
 #include <set>
 #include <sstream>
@@ -53,12 +54,12 @@ bool ParseInt(const std::string& s, long long& v) {
 
 uint8_t Clamp8(int v) { return static_cast<uint8_t>(std::clamp(v, 0, 255)); }
 
-bool LoadPng(const std::string& path, std::vector<uint8_t>& rgb, int& width, int& height,
-             std::string& error) {
+bool DecodePng(const std::string& path, const uint8_t* data, size_t size, std::vector<uint8_t>& rgb,
+               int& width, int& height, std::string& error) {
   png_image image;
   std::memset(&image, 0, sizeof image);
   image.version = PNG_IMAGE_VERSION;
-  if (!png_image_begin_read_from_file(&image, path.c_str())) {
+  if (!png_image_begin_read_from_memory(&image, data, size)) {
     error = path + ": not a readable PNG (" + image.message + ")";
     return false;
   }
@@ -150,8 +151,20 @@ bool LoadYuyv(const std::string& path, std::vector<uint8_t>& out, int& width, in
     error = path + ": unsupported image type (want .png or .yuyv)";
     return false;
   }
+  std::ifstream f(path, std::ios::binary);
+  if (!f) {
+    error = path + ": cannot open";
+    return false;
+  }
+  const std::string bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  return DecodePngToYuyv(path, reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size(), out,
+                         width, height, error);
+}
+
+bool DecodePngToYuyv(const std::string& name, const uint8_t* data, size_t size,
+                     std::vector<uint8_t>& out, int& width, int& height, std::string& error) {
   std::vector<uint8_t> rgb;
-  if (!LoadPng(path, rgb, width, height, error)) return false;
+  if (!DecodePng(name, data, size, rgb, width, height, error)) return false;
   out.resize(static_cast<size_t>(width) * height * 2);
   RgbToYuyv(rgb.data(), width, height, out.data());
   return true;
@@ -185,11 +198,20 @@ bool SaveYuyv(const std::string& path, const uint8_t* yuyv, int width, int heigh
 
 bool LoadSequence(const std::string& dir, Sequence& out, std::string& error) {
   const std::string csv = dir + "/frames.csv";
-  std::ifstream f(csv);
+  std::ifstream f(csv, std::ios::binary);
   if (!f) {
     error = csv + ": cannot open (is '" + dir + "' a captured sequence directory?)";
     return false;
   }
+  std::stringstream text;
+  text << f.rdbuf();
+  return ParseSequenceIndex(text.str(), dir, /*check_files=*/true, out, error);
+}
+
+bool ParseSequenceIndex(const std::string& text, const std::string& dir, bool check_files,
+                        Sequence& out, std::string& error) {
+  const std::string csv = dir + "/frames.csv";
+  std::istringstream f(text);
   out = Sequence{};
   out.dir = dir;
   std::string line;
@@ -246,8 +268,8 @@ bool LoadSequence(const std::string& dir, Sequence& out, std::string& error) {
     for (int c = 0; c < 2; ++c) {
       const std::string& name = cols[c == 0 ? col_omni : col_persp];
       if (name.empty()) continue;
-      std::string path = (!name.empty() && name[0] == '/') ? name : dir + "/" + name;
-      if (!FileExists(path)) {
+      std::string path = name[0] == '/' ? name : dir + "/" + name;
+      if (check_files && !FileExists(path)) {
         error = where + "image '" + name + "' not found";
         return false;
       }

@@ -27,6 +27,16 @@ struct Sequence {
 /// decreasing t_us, duplicate index, missing image file).
 bool LoadSequence(const std::string& dir, Sequence& out, std::string& error);
 
+/// The parser behind LoadSequence, for text already in memory (and the fuzzer). With
+/// `check_files` false, image names are not checked against the file system.
+bool ParseSequenceIndex(const std::string& text, const std::string& dir, bool check_files,
+                        Sequence& out, std::string& error);
+
+/// Decodes PNG bytes (any bit depth / colour type libpng reads) to YUYV; `name` is used in
+/// error messages. Refuses images larger than 8192 x 8192.
+bool DecodePngToYuyv(const std::string& name, const uint8_t* data, size_t size,
+                     std::vector<uint8_t>& out, int& width, int& height, std::string& error);
+
 /// Loads one image as YUYV (2 bytes per pixel). PNG (8-bit gray/RGB/RGBA, any size) is
 /// converted with BT.601 full range, chroma averaged over horizontal pairs; .yuyv must be
 /// expected_width x expected_height x 2 bytes exactly. Errors name the file and the problem.
