@@ -2,7 +2,7 @@
 # One entry point for people and CI:
 #   tools/dev.sh deps    install what the project needs (Debian 12, apt-get, idempotent)
 #   tools/dev.sh demo    deps + host build + `ballvision demo` (the main job, no external data)
-#   tools/dev.sh test    deps + build every preset + run every test suite (host, sanitizers, QEMU)
+#   tools/dev.sh test    deps + build every preset + run every suite (host, sanitizers, QEMU, fuzz)
 #   tools/dev.sh build   build every preset without testing
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -47,15 +47,15 @@ case "${1:-}" in
     ;;
   build)
     deps
-    for p in host host-sanitize fw-qemu fw-stm32h7; do build_preset "$p"; done
+    for p in host host-sanitize fw-qemu fw-stm32h7 fuzz; do build_preset "$p"; done
     ;;
   test)
     deps
-    for p in host host-sanitize fw-qemu fw-stm32h7; do
+    for p in host host-sanitize fw-qemu fw-stm32h7 fuzz; do
       echo "== build $p"
       build_preset "$p"
     done
-    for p in host host-sanitize fw-qemu; do
+    for p in host host-sanitize fw-qemu fuzz; do
       echo "== test $p"
       ctest --preset "$p"
     done
