@@ -1,12 +1,328 @@
+// ballvision lut: train, evaluate and inspect colour lookup tables (core/color_lut).
+#include <algorithm>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <iterator>
+#include <string>
+#include <vector>
 
 #include "tools/ballvision/commands.h"
+#include "tools/ballvision/lut_train.h"
 
 namespace bv::cli {
+namespace {
 
-int CmdLut(int, char** argv) {
-  std::fprintf(stderr, "ballvision %s: not implemented yet\n", argv[0]);
-  return 1;
+int LutUsage() {
+  std::fprintf(
+      stderr,
+      "usage: ballvision lut train --out LUT.bin [sources] [--ratio R] [--min-weight W]\n"
+      "                           [--gauss D2 [--gauss-veto F]]  (chroma-Gaussian ball model)\n"
+      "                           [--shade MIN,MAX]  (brightness factors added per ball sample, "
+      "0.55,1.30)\n"
+      "       ballvision lut eval --lut LUT.bin [sources] [--center U,V] [--no-track] [--verbose]\n"
+      "                           [--annotate DIR]  (debug pictures of every evaluated frame)\n"
+      "       ballvision lut show LUT.bin\n"
+      "sources (repeatable):\n"
+      "  --sim DIR            rendered sequence with truth.csv (ball silhouettes from the truth)\n"
+      "  --camera omni|persp|both   cameras of the following --sim (default both)\n"
+      "  --every N --phase P  use frames with index %% N == P (train/test split; default all)\n"
+      "  --boxes FILE --images DIR [--split all|even|odd]  annotated boxes (msl format:\n"
+      "                       'image class_id class x0 y0 x1 y1'); split by image order\n"
+      "  --teach IMG:U,V[:CLASS[:TOL]]  grow a region from one clicked pixel (CLASS ball|field|\n"
+      "                       line|obstacle, default ball; TOL shade-normalised chroma, 0.12)\n");
+  return 2;
+}
+
+bool ReadFile(const std::string& path, std::vector<uint8_t>& out) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return false;
+  out.assign(std::istreambuf_iterator<char>(in), {});
+  return true;
+}
+
+bool LoadLut(const std::string& path, ColorLut& lut) {
+  std::vector<uint8_t> blob;
+  if (!ReadFile(path, blob)) {
+    std::fprintf(stderr, "ballvision lut: cannot read %s\n", path.c_str());
+    return false;
+  }
+  const Status st = ParseLut(blob, lut);
+  if (!st.ok()) {
+    std::fprintf(stderr, "ballvision lut: %s: %s\n", path.c_str(), st.message());
+    return false;
+  }
+  return true;
+}
+
+struct SimSource {
+  std::string dir;
+  bool omni = true, persp = true;
+  int every = 1, phase = 0;
+};
+struct BoxSource {
+  std::string file, images, split = "all";
+};
+struct Teach {
+  std::string image;
+  int u = 0, v = 0;
+  ColorClass cls = ColorClass::kBall;
+  float tol = 0.12f;
+};
+
+struct Args {
+  std::string out, lut;
+  std::vector<SimSource> sims;
+  std::vector<BoxSource> boxes;
+  std::vector<Teach> teach;
+  lut::TrainOptions train;
+  lut::FinderSetup setup;
+  bool verbose = false;
+};
+
+bool ParseClass(const std::string& s, ColorClass& c) {
+  for (int i = 0; i < kColorClassCount; ++i) {
+    if (s == ColorClassName(static_cast<ColorClass>(i))) {
+      c = static_cast<ColorClass>(i);
+      return true;
+    }
+  }
+  return false;
+}
+
+bool ParseArgs(int argc, char** argv, Args& a) {
+  bool omni = true, persp = true;
+  int every = 1, phase = 0;
+  std::string split = "all";
+  float cu = 314.2f, cv = 244.1f;  // reference rig mirror circle (render/README.md)
+  for (int i = 2; i < argc; ++i) {
+    const std::string k = argv[i];
+    const bool has = i + 1 < argc;
+    const std::string val = has ? argv[i + 1] : "";
+    if (k == "--verbose") {
+      a.verbose = a.setup.verbose = true;
+      continue;
+    }
+    if (k == "--no-track") {
+      a.setup.track = false;
+      continue;
+    }
+    if (!has) {
+      std::fprintf(stderr, "ballvision lut: %s needs a value\n", k.c_str());
+      return false;
+    }
+    ++i;
+    if (k == "--out")
+      a.out = val;
+    else if (k == "--lut")
+      a.lut = val;
+    else if (k == "--annotate")
+      a.setup.annotate_dir = val;
+    else if (k == "--camera") {
+      omni = val == "omni" || val == "both";
+      persp = val == "persp" || val == "both";
+      if (!omni && !persp) return false;
+    } else if (k == "--every")
+      every = std::max(1, std::atoi(val.c_str()));
+    else if (k == "--phase")
+      phase = std::atoi(val.c_str());
+    else if (k == "--sim")
+      a.sims.push_back({val, omni, persp, every, phase});
+    else if (k == "--split")
+      split = val;
+    else if (k == "--boxes")
+      a.boxes.push_back({val, "", split});
+    else if (k == "--images") {
+      if (a.boxes.empty()) return false;
+      a.boxes.back().images = val;
+      a.boxes.back().split = split;
+    } else if (k == "--ratio")
+      a.train.ratio = std::strtof(val.c_str(), nullptr);
+    else if (k == "--shade") {
+      if (std::sscanf(val.c_str(), "%f,%f", &a.train.shade_min, &a.train.shade_max) != 2) {
+        return false;
+      }
+    } else if (k == "--gauss")
+      a.train.gauss_d2 = std::strtof(val.c_str(), nullptr);
+    else if (k == "--gauss-veto")
+      a.train.gauss_veto = std::strtof(val.c_str(), nullptr);
+    else if (k == "--min-weight")
+      a.train.min_ball_weight = std::strtof(val.c_str(), nullptr);
+    else if (k == "--min-roundness")
+      a.setup.finder.min_roundness = std::strtof(val.c_str(), nullptr);
+    else if (k == "--center") {
+      if (std::sscanf(val.c_str(), "%f,%f", &cu, &cv) != 2) return false;
+    } else if (k == "--teach") {
+      Teach t;
+      const size_t c1 = val.rfind(':');
+      // IMG:U,V[:CLASS[:TOL]] — parse from the right.
+      std::vector<std::string> parts;
+      size_t start = 0;
+      for (size_t p = val.find(':'); p != std::string::npos; p = val.find(':', start)) {
+        parts.push_back(val.substr(start, p - start));
+        start = p + 1;
+      }
+      parts.push_back(val.substr(start));
+      (void)c1;
+      if (parts.size() < 2 || std::sscanf(parts[1].c_str(), "%d,%d", &t.u, &t.v) != 2) return false;
+      t.image = parts[0];
+      if (parts.size() > 2 && !ParseClass(parts[2], t.cls)) return false;
+      if (parts.size() > 3) t.tol = std::strtof(parts[3].c_str(), nullptr);
+      a.teach.push_back(t);
+    } else {
+      std::fprintf(stderr, "ballvision lut: unknown option %s\n", k.c_str());
+      return false;
+    }
+  }
+  a.setup.omni = ReferenceOmniScanConfig(cu, cv);
+  a.setup.persp = ReferencePerspScanConfig();
+  return true;
+}
+
+bool SelectBoxes(const BoxSource& b, std::vector<lut::BoxImage>& out) {
+  std::vector<lut::BoxImage> all;
+  std::string err;
+  if (!lut::LoadBoxFile(b.file, b.images, all, err)) {
+    std::fprintf(stderr, "ballvision lut: %s\n", err.c_str());
+    return false;
+  }
+  std::sort(all.begin(), all.end(), [](const auto& x, const auto& y) { return x.path < y.path; });
+  for (size_t i = 0; i < all.size(); ++i) {
+    if (b.split == "all" || (b.split == "even" && i % 2 == 0) || (b.split == "odd" && i % 2 == 1)) {
+      out.push_back(all[i]);
+    }
+  }
+  return true;
+}
+
+int Train(const Args& a) {
+  if (a.out.empty()) return LutUsage();
+  lut::Trainer t(a.train);
+  std::string err;
+  for (const auto& s : a.sims) {
+    for (int c = 0; c < 2; ++c) {
+      if (!(c == 0 ? s.omni : s.persp)) continue;
+      const int n =
+          lut::AddSimSequence(t, s.dir, static_cast<lut::Camera>(c), s.every, s.phase, err);
+      if (n < 0) {
+        std::fprintf(stderr, "ballvision lut: %s\n", err.c_str());
+        return 1;
+      }
+      std::printf("sim %s %s: %d frames\n", s.dir.c_str(), c == 0 ? "omni" : "persp", n);
+    }
+  }
+  for (const auto& b : a.boxes) {
+    std::vector<lut::BoxImage> imgs;
+    if (!SelectBoxes(b, imgs)) return 1;
+    for (const auto& bi : imgs) {
+      lut::Image img;
+      if (!lut::LoadImage(bi.path, img, err)) {
+        std::fprintf(stderr, "ballvision lut: %s\n", err.c_str());
+        return 1;
+      }
+      t.AddBoxes(img, bi.balls);
+    }
+    std::printf("boxes %s (%s): %zu images\n", b.file.c_str(), b.split.c_str(), imgs.size());
+  }
+  for (const auto& tc : a.teach) {
+    lut::Image img;
+    if (!lut::LoadImage(tc.image, img, err)) {
+      std::fprintf(stderr, "ballvision lut: %s\n", err.c_str());
+      return 1;
+    }
+    const int n = t.Teach(img, tc.u, tc.v, tc.cls, tc.tol);
+    std::printf("teach %s (%d,%d) %s: %d pixels\n", tc.image.c_str(), tc.u, tc.v,
+                ColorClassName(tc.cls), n);
+  }
+  static ColorLut lut;
+  lut = t.Build();
+  std::vector<uint8_t> blob(kColorLutBlobBytes);
+  const Result<size_t> n = SerializeLut(lut, blob);
+  if (!n.ok()) {
+    std::fprintf(stderr, "ballvision lut: %s\n", n.status().message());
+    return 1;
+  }
+  std::ofstream out(a.out, std::ios::binary);
+  out.write(reinterpret_cast<const char*>(blob.data()), static_cast<std::streamsize>(*n));
+  if (!out) {
+    std::fprintf(stderr, "ballvision lut: cannot write %s\n", a.out.c_str());
+    return 1;
+  }
+  int ball = 0;
+  for (uint32_t i = 0; i < ColorLut::kEntries; ++i) ball += lut.at(i) == ColorClass::kBall;
+  std::printf("wrote %s: %zu bytes, id 0x%08x, %d ball cells, %.0f ball / %.0f other samples\n",
+              a.out.c_str(), *n, lut.Id(), ball, t.ball_samples(), t.other_samples());
+  return 0;
+}
+
+int Eval(const Args& a) {
+  static ColorLut lut;
+  if (a.lut.empty() || !LoadLut(a.lut, lut)) return LutUsage();
+  std::string err;
+  for (const auto& s : a.sims) {
+    for (int c = 0; c < 2; ++c) {
+      if (!(c == 0 ? s.omni : s.persp)) continue;
+      lut::EvalCounts e;
+      if (!lut::EvalSim(s.dir, static_cast<lut::Camera>(c), lut, a.setup, s.every, s.phase, e,
+                        err)) {
+        std::fprintf(stderr, "ballvision lut: %s\n", err.c_str());
+        return 1;
+      }
+      std::vector<float> sorted = e.errors_px;
+      std::sort(sorted.begin(), sorted.end());
+      const float median = sorted.empty() ? 0.0f : sorted[sorted.size() / 2];
+      std::printf(
+          "%s %-5s frames %3d  ball>=4px %3d  recall %5.1f%% (%d)  within1px %5.1f%% of ball "
+          "frames (%d)  median err %.2f px  false %d  missed %d  pixels read %.2f%%  overflows "
+          "%u\n",
+          s.dir.c_str(), c == 0 ? "omni" : "persp", e.frames, e.ball_frames,
+          e.ball_frames ? 100.0 * e.found_on_ball / e.ball_frames : 0.0, e.found_on_ball,
+          e.ball_frames ? 100.0 * e.within_1px / e.ball_frames : 0.0, e.within_1px, median,
+          e.false_det, e.missed,
+          e.frames ? 100.0 * e.pixels_read_sum / e.frames / (kFrameWidth * kFrameHeight) : 0.0,
+          e.overflows);
+    }
+  }
+  for (const auto& b : a.boxes) {
+    std::vector<lut::BoxImage> imgs;
+    if (!SelectBoxes(b, imgs)) return 1;
+    lut::BoxEvalCounts e;
+    if (!lut::EvalBoxes(imgs, lut, a.setup, e, err, a.verbose)) {
+      std::fprintf(stderr, "ballvision lut: %s\n", err.c_str());
+      return 1;
+    }
+    std::printf("%s (%s): images %d (with ball %d, balls %d)  recall %d/%d  false %d  missed %d\n",
+                b.file.c_str(), b.split.c_str(), e.images, e.images_with_ball, e.balls, e.hit,
+                e.images_with_ball, e.false_det, e.missed);
+  }
+  return 0;
+}
+
+int Show(const std::string& path) {
+  static ColorLut lut;
+  if (!LoadLut(path, lut)) return 1;
+  int counts[kColorClassCount] = {};
+  for (uint32_t i = 0; i < ColorLut::kEntries; ++i) ++counts[static_cast<int>(lut.at(i))];
+  std::printf("%s: Y%d/U%d/V%d, %zu cells, id 0x%08x\n", path.c_str(), ColorLut::kYBits,
+              ColorLut::kUBits, ColorLut::kVBits, ColorLut::kEntries, lut.Id());
+  for (int c = 0; c < kColorClassCount; ++c) {
+    std::printf("  %-9s %6d cells\n", ColorClassName(static_cast<ColorClass>(c)), counts[c]);
+  }
+  return 0;
+}
+
+}  // namespace
+
+int CmdLut(int argc, char** argv) {
+  if (argc < 2 || !std::strcmp(argv[1], "--help")) return LutUsage();
+  const std::string sub = argv[1];
+  if (sub == "show") return argc == 3 ? Show(argv[2]) : LutUsage();
+  Args a;
+  if (!ParseArgs(argc, argv, a)) return LutUsage();
+  if (sub == "train") return Train(a);
+  if (sub == "eval") return Eval(a);
+  return LutUsage();
 }
 
 }  // namespace bv::cli

@@ -1,0 +1,75 @@
+#include "core/color_lut/color_lut.h"
+
+#include <cstring>
+
+#include "core/common/blob.h"
+#include "core/common/bytes.h"
+#include "core/common/crc32.h"
+
+namespace bv {
+
+const char* ColorClassName(ColorClass c) {
+  switch (c) {
+    case ColorClass::kUnknown:
+      return "unknown";
+    case ColorClass::kBall:
+      return "ball";
+    case ColorClass::kField:
+      return "field";
+    case ColorClass::kLine:
+      return "line";
+    case ColorClass::kObstacle:
+      return "obstacle";
+  }
+  return "invalid";
+}
+
+void ColorLut::Fill(ColorClass c) { std::memset(table_, static_cast<uint8_t>(c), kEntries); }
+
+uint32_t ColorLut::Id() const { return Crc32(table()); }
+
+Result<size_t> SerializeLut(const ColorLut& lut, std::span<uint8_t> out) {
+  if (out.size() < kColorLutBlobBytes) {
+    return Status(StatusCode::kResourceExhausted,
+                  "SerializeLut: output smaller than kColorLutBlobBytes");
+  }
+  // Header written by hand (not WriteBlob) so the 64 KB payload needs no scratch copy.
+  const uint8_t layout[4] = {ColorLut::kYBits, ColorLut::kUBits, ColorLut::kVBits,
+                             kColorClassCount};
+  const uint32_t crc = Crc32Update(Crc32Update(0, layout), lut.table());
+  ByteWriter w(out);
+  w.U32(kBlobMagic);
+  w.U16(static_cast<uint16_t>(BlobKind::kColorLut));
+  w.U16(kColorLutBlobVersion);
+  w.U32(static_cast<uint32_t>(kColorLutPayloadBytes));
+  w.U32(crc);
+  w.Bytes(layout);
+  w.Bytes(lut.table());
+  BV_TRY(w.status());
+  return w.size();
+}
+
+Status ParseLut(std::span<const uint8_t> blob, ColorLut& out) {
+  Result<BlobView> view = ReadBlob(blob, BlobKind::kColorLut, kColorLutBlobVersion);
+  if (!view.ok()) return view.status();
+  std::span<const uint8_t> p = view->payload;
+  if (p.size() != kColorLutPayloadBytes) {
+    return Status(StatusCode::kInvalidArgument, "ParseLut: payload size is not 4 + 65536 bytes");
+  }
+  if (p[0] != ColorLut::kYBits || p[1] != ColorLut::kUBits || p[2] != ColorLut::kVBits) {
+    return Status(StatusCode::kInvalidArgument, "ParseLut: bit layout is not Y4/U6/V6");
+  }
+  if (p[3] == 0 || p[3] > kColorClassCount) {
+    return Status(StatusCode::kInvalidArgument, "ParseLut: class count out of range");
+  }
+  for (size_t i = 0; i < ColorLut::kEntries; ++i) {
+    if (p[4 + i] >= p[3]) {
+      return Status(StatusCode::kInvalidArgument, "ParseLut: table entry names an unknown class");
+    }
+  }
+  for (size_t i = 0; i < ColorLut::kEntries; ++i)
+    out.Set(static_cast<uint32_t>(i), static_cast<ColorClass>(p[4 + i]));
+  return Status::Ok();
+}
+
+}  // namespace bv

@@ -1,0 +1,74 @@
+#pragma once
+// Colour classification by lookup table on YUV 4:2:2 pixels.
+// Layout: one byte per cell of a 3D table indexed by Y>>4, U>>2, V>>2 (4/6/6 bits, as SSL-Vision's
+// default): 16 x 64 x 64 = 65536 bytes. Classify() is a shift/or and one load. See README.md for
+// why this layout (vs CMVision bitmasks or a 2D UV table) was chosen.
+#include <cstddef>
+#include <cstdint>
+#include <span>
+
+#include "core/common/status.h"
+
+namespace bv {
+
+enum class ColorClass : uint8_t {
+  kUnknown = 0,
+  kBall = 1,
+  kField = 2,
+  kLine = 3,
+  kObstacle = 4,
+};
+inline constexpr int kColorClassCount = 5;
+const char* ColorClassName(ColorClass c);
+
+class ColorLut {
+ public:
+  static constexpr int kYBits = 4;
+  static constexpr int kUBits = 6;
+  static constexpr int kVBits = 6;
+  static constexpr size_t kEntries = size_t{1} << (kYBits + kUBits + kVBits);
+  static_assert(kEntries <= 65536, "LUT must stay within 64 KB");
+
+  static constexpr uint32_t Index(uint8_t y, uint8_t u, uint8_t v) {
+    return (uint32_t{y} >> (8 - kYBits)) << (kUBits + kVBits) |
+           (uint32_t{u} >> (8 - kUBits)) << kVBits | (uint32_t{v} >> (8 - kVBits));
+  }
+  /// Centre of a cell's (y, u, v) box, for training and display.
+  static constexpr void CellCenter(uint32_t index, uint8_t& y, uint8_t& u, uint8_t& v) {
+    y = static_cast<uint8_t>(((index >> (kUBits + kVBits)) << (8 - kYBits)) + (1 << (7 - kYBits)));
+    u = static_cast<uint8_t>((((index >> kVBits) & ((1u << kUBits) - 1)) << (8 - kUBits)) +
+                             (1 << (7 - kUBits)));
+    v = static_cast<uint8_t>(((index & ((1u << kVBits) - 1)) << (8 - kVBits)) +
+                             (1 << (7 - kVBits)));
+  }
+
+  ColorClass Classify(uint8_t y, uint8_t u, uint8_t v) const {
+    return static_cast<ColorClass>(table_[Index(y, u, v)]);
+  }
+  ColorClass at(uint32_t index) const { return static_cast<ColorClass>(table_[index]); }
+  void Set(uint32_t index, ColorClass c) { table_[index] = static_cast<uint8_t>(c); }
+  void Fill(ColorClass c);
+  std::span<const uint8_t, kEntries> table() const {
+    return std::span<const uint8_t, kEntries>(table_);
+  }
+  /// CRC-32 of the table (RigCalibration::lut_id).
+  uint32_t Id() const;
+
+ private:
+  uint8_t table_[kEntries] = {};
+};
+
+// --- the device blob (BlobKind::kColorLut) ---
+// payload: y_bits u8 | u_bits u8 | v_bits u8 | class_count u8 | table (kEntries bytes)
+inline constexpr uint16_t kColorLutBlobVersion = 1;
+inline constexpr size_t kColorLutPayloadBytes = 4 + ColorLut::kEntries;
+inline constexpr size_t kColorLutBlobBytes = 16 + kColorLutPayloadBytes;
+
+/// Errors: kResourceExhausted if `out` is smaller than kColorLutBlobBytes.
+Result<size_t> SerializeLut(const ColorLut& lut, std::span<uint8_t> out);
+/// Validates magic, kind, version, length, CRC, the bit layout and every class value before
+/// touching `out`. Errors: kDataLoss (truncated/CRC), kInvalidArgument (layout, class values),
+/// kUnimplemented (newer version).
+Status ParseLut(std::span<const uint8_t> blob, ColorLut& out);
+
+}  // namespace bv

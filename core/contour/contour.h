@@ -1,0 +1,110 @@
+#pragma once
+// Regions of one colour class, found from seed pixels by 8-connected contour following (Freeman
+// chain code through the boundary pixel centres) on the classified image. Pixels are classified
+// on the fly through the LUT: only the boundary and the short walk from a seed to it are read.
+// Region descriptors come from the chain code alone (Green's theorem): area, perimeter, bbox,
+// sub-pixel centroid, roundness. Holes (e.g. a specular highlight inside the ball) are traced
+// once, kept as hole records so later seeds skip them, and are filled in the outer region's
+// area and centroid.
+#include <cstddef>
+#include <cstdint>
+#include <span>
+
+#include "core/color_lut/color_lut.h"
+#include "core/common/image.h"
+
+namespace bv {
+
+struct Region {
+  int16_t start_u = 0, start_v = 0;  // first contour pixel (its left neighbour is not in class)
+  int16_t u_min = 0, v_min = 0, u_max = 0, v_max = 0;  // bbox, inclusive
+  bool hole = false;                                   // contour of a hole inside another region
+  uint32_t chain_offset = 0;                           // codes in the set's chain pool
+  uint32_t chain_length = 0;
+  float polygon_area_px = 0;   // area enclosed by the boundary-pixel-centre polygon
+  float area_px = 0;           // pixel count incl. holes: polygon + length/2 + 1 (Pick)
+  float perimeter_px = 0;      // Vossepoel-Smeulders length estimate of the chain
+  float cu_px = 0, cv_px = 0;  // centroid of the polygon
+  float roundness = 0;         // 4*pi*polygon_area / perimeter^2, 1 for a disc, 0 for a line
+};
+
+/// Freeman directions: 0 = +u, 2 = -v (up), 4 = -u, 6 = +v; odd codes are diagonals.
+inline constexpr int kChainDu[8] = {1, 1, 0, -1, -1, -1, 0, 1};
+inline constexpr int kChainDv[8] = {0, -1, -1, -1, 0, 1, 1, 1};
+
+enum class SeedOutcome : uint8_t {
+  kNewRegion,      // traced a new outer contour (regions().back())
+  kAlreadyTraced,  // the seed's region was traced before: nothing traced
+  kNotInClass,     // the seed pixel is not of the class (or outside the image)
+  kRegionsFull,    // region capacity reached (counted in overflows())
+  kChainFull,      // chain-code pool exhausted (counted in overflows())
+  kTooManyHoles,   // gave up after kMaxHoleHops holes between seed and outer contour
+};
+
+class RegionSetBase {
+ public:
+  static constexpr int kMaxHoleHops = 4;
+
+  /// Forgets all regions (start of a frame). Counters are reset too.
+  void Clear();
+  /// Finds the region of `cls` containing pixel (u, v) and traces its outer contour unless it was
+  /// traced before. Never reads a pixel twice per boundary step more than the 8 neighbours.
+  SeedOutcome TraceSeed(const YuyvImage& img, const ColorLut& lut, ColorClass cls, int u, int v);
+
+  std::span<const Region> regions() const { return {regions_, size_}; }
+  std::span<const uint8_t> chain(const Region& r) const {
+    return {chain_ + r.chain_offset, r.chain_length};
+  }
+  uint32_t pixels_read() const { return pixels_read_; }
+  uint32_t overflows() const { return overflows_; }
+  size_t capacity() const { return capacity_; }
+
+ protected:
+  RegionSetBase(Region* regions, size_t capacity, uint8_t* chain, size_t chain_capacity)
+      : regions_(regions), capacity_(capacity), chain_(chain), chain_capacity_(chain_capacity) {}
+
+ private:
+  bool OnContour(const Region& r, int u, int v) const;
+  // Traces from a boundary pixel; false when the chain pool overflows.
+  bool Trace(const YuyvImage& img, const ColorLut& lut, ColorClass cls, int u, int v, Region& out);
+
+  Region* regions_;
+  size_t capacity_;
+  uint8_t* chain_;
+  size_t chain_capacity_;
+  size_t size_ = 0;
+  size_t chain_used_ = 0;
+  uint32_t pixels_read_ = 0;
+  uint32_t overflows_ = 0;
+  bool chain_exhausted_ = false;
+  bool regions_exhausted_ = false;
+};
+
+template <size_t kMaxRegions, size_t kMaxChainCodes>
+class RegionSet : public RegionSetBase {
+  static_assert(kMaxRegions > 0 && kMaxChainCodes > 0);
+
+ public:
+  // chain_ is scratch written before it is read (the base tracks its fill); zeroing it per
+  // frame would cost more than the tracing.
+  // cppcheck-suppress uninitMemberVar
+  RegionSet() : RegionSetBase(regions_, kMaxRegions, chain_, kMaxChainCodes) {}
+  RegionSet(const RegionSet&) = delete;
+  RegionSet& operator=(const RegionSet&) = delete;
+
+ private:
+  Region regions_[kMaxRegions];
+  uint8_t chain_[kMaxChainCodes];
+};
+
+/// Class of pixel (u, v) through the LUT; outside the image counts as kUnknown.
+inline ColorClass ClassAt(const YuyvImage& img, const ColorLut& lut, int u, int v) {
+  if (static_cast<unsigned>(u) >= static_cast<unsigned>(img.width) ||
+      static_cast<unsigned>(v) >= static_cast<unsigned>(img.height)) {
+    return ColorClass::kUnknown;
+  }
+  const uint8_t* pair = img.data + static_cast<ptrdiff_t>(v) * img.stride_bytes + (u & ~1) * 2;
+  return lut.Classify(pair[(u & 1) * 2], pair[1], pair[3]);
+}
+
+}  // namespace bv

@@ -1,0 +1,189 @@
+#include "core/detect/detect.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace bv {
+
+Status BallFinder::Init(const ScanlineTableBase& scanlines, const BallFinderConfig& config) {
+  scan_ = nullptr;
+  if (!scanlines.built()) {
+    return Status(StatusCode::kFailedPrecondition, "BallFinder::Init: scanline table not built");
+  }
+  if (config.attention_samples < 0 || config.attention_samples > kMaxAttentionSamples ||
+      !(config.min_roundness >= 0.0f && config.min_roundness <= 1.0f) ||
+      !(config.min_area_px >= 1.0f) || config.prng_seed == 0) {
+    return Status(StatusCode::kInvalidArgument,
+                  "BallFinder::Init: attention_samples > 256, roundness outside 0..1, "
+                  "min_area < 1 or prng_seed 0");
+  }
+  scan_ = &scanlines;
+  config_ = config;
+  rng_ = config.prng_seed;
+  return Status::Ok();
+}
+
+namespace {
+constexpr int kPrefetchRows = 8;  // measured: 4 -> 8 rows cut the cold omni scan 75 -> 65 us
+constexpr int kContextSamples = 16;
+// Unit circle in 16 steps, Q8.
+constexpr int16_t kRingCos[kContextSamples] = {256,  237,  181,  98,  0, -98, -181, -237,
+                                               -256, -237, -181, -98, 0, 98,  181,  237};
+constexpr int16_t kRingSin[kContextSamples] = {0, 98,  181,  237,  256,  237,  181,  98,
+                                               0, -98, -181, -237, -256, -237, -181, -98};
+
+// Fraction of ring samples just outside the region that are field or line coloured.
+float FieldContext(const YuyvImage& image, const ColorLut& lut, const Region& r) {
+  const float radius =
+      0.5f * static_cast<float>(std::max(r.u_max - r.u_min, r.v_max - r.v_min)) + 3.0f;
+  const int rad_q8 = static_cast<int>(radius * 256.0f);
+  const int cu = static_cast<int>(r.cu_px + 0.5f), cv = static_cast<int>(r.cv_px + 0.5f);
+  int n = 0;
+  for (int i = 0; i < kContextSamples; ++i) {
+    const ColorClass c = ClassAt(image, lut, cu + ((kRingCos[i] * rad_q8) >> 16),
+                                 cv + ((kRingSin[i] * rad_q8) >> 16));
+    n += c == ColorClass::kField || c == ColorClass::kLine;
+  }
+  return static_cast<float>(n) / kContextSamples;
+}
+}  // namespace
+
+uint32_t BallFinder::NextRandom() {  // xorshift32
+  rng_ ^= rng_ << 13;
+  rng_ ^= rng_ >> 17;
+  rng_ ^= rng_ << 5;
+  return rng_;
+}
+
+void BallFinder::Seed(const YuyvImage& image, const ColorLut& lut, int u, int v,
+                      FrontEndStats& stats) {
+  ++stats.seeds;
+  const SeedOutcome o = regions_.TraceSeed(image, lut, ColorClass::kBall, u, v);
+  if (o == SeedOutcome::kNewRegion) ++stats.regions;
+}
+
+Status BallFinder::Find(const YuyvImage& image, const ColorLut& lut, const Prediction* prediction,
+                        BallDetection& out, FrontEndStats& stats) {
+  out = BallDetection{};
+  stats = FrontEndStats{};
+  regions_.Clear();
+  attention_count_ = 0;
+  chosen_ = -1;
+  if (scan_ == nullptr)
+    return Status(StatusCode::kFailedPrecondition, "BallFinder: not initialised");
+  if (image.data == nullptr || image.width != scan_->width() || image.height != scan_->height() ||
+      image.stride_bytes < 2 * image.width) {
+    return Status(
+        StatusCode::kInvalidArgument,
+        "BallFinder::Find: frame size differs from the scanline table (or null/short stride)");
+  }
+
+  // 1. Monte-Carlo attention first, so the predicted ball is traced before clutter can fill the
+  //    region capacity. Normal samples from the sum of four 12-bit uniforms (Irwin-Hall, no libm).
+  uint32_t attention_reads = 0;
+  if (prediction != nullptr && std::isfinite(prediction->u_px) && std::isfinite(prediction->v_px) &&
+      std::isfinite(prediction->sigma_px) && prediction->sigma_px > 0.0f) {
+    constexpr float kInvSigma = 1.0f / 2364.9f;  // sd of the sum of four U[0, 4096)
+    for (int i = 0; i < config_.attention_samples; ++i) {
+      float z[2];
+      for (float& zi : z) {
+        const uint32_t a = NextRandom(), b = NextRandom();
+        const int32_t sum =
+            static_cast<int32_t>((a & 4095) + ((a >> 16) & 4095) + (b & 4095) + ((b >> 16) & 4095));
+        zi = static_cast<float>(sum - 8192) * kInvSigma;
+      }
+      const int u = static_cast<int>(std::lround(prediction->u_px + prediction->sigma_px * z[0]));
+      const int v = static_cast<int>(std::lround(prediction->v_px + prediction->sigma_px * z[1]));
+      if (!image.contains(u, v)) continue;
+      attention_u_[attention_count_] = static_cast<int16_t>(u);
+      attention_v_[attention_count_] = static_cast<int16_t>(v);
+      ++attention_count_;
+      ++attention_reads;
+      if (ClassAt(image, lut, u, v) == ColorClass::kBall) Seed(image, lut, u, v, stats);
+    }
+  }
+  stats.attention_samples = attention_reads;
+
+  // 2. Scanlines, row-major: a seed at the first ball sample of every run along a row.
+  const uint8_t* data = image.data;
+  const int stride = image.stride_bytes;
+  scan_->ForEachRow([&](int v, int u, const uint8_t* deltas, int n) {
+    const uint8_t* row = data + v * stride;
+    bool in_run = false;
+    for (int k = 0; k < n; ++k) {
+      if (k > 0 && deltas[k] == 0) {  // escape: gap > 255 px
+        u += 255;
+        in_run = false;
+        continue;
+      }
+      u += deltas[k];
+      const uint8_t* pair = row + (u & ~1) * 2;
+      // A fresh frame is cold in cache: fetch the rows below while this one is classified.
+      if (v + kPrefetchRows < image.height) __builtin_prefetch(pair + kPrefetchRows * stride);
+      const bool ball = lut.Classify(pair[(u & 1) * 2], pair[1], pair[3]) == ColorClass::kBall;
+      if (ball && !in_run) Seed(image, lut, u, v, stats);
+      in_run = ball;
+    }
+  });
+  stats.scan_pixels = scan_->pixel_count();
+
+  // 3. Ball choice.
+  const auto regions = regions_.regions();
+  int best = -1;
+  float best_key = 0;
+  bool best_in_field = false;
+  uint32_t candidates = 0, holes = 0;
+  for (size_t i = 0; i < regions.size(); ++i) {
+    const Region& r = regions[i];
+    if (r.hole) {
+      ++holes;
+      continue;
+    }
+    if (r.area_px < config_.min_area_px || r.roundness < config_.min_roundness) continue;
+    ++candidates;
+    const bool in_field =
+        config_.in_field == nullptr || config_.in_field(config_.in_field_context, r.cu_px, r.cv_px);
+    // Prefer: inside the field, then nearest the prediction, else the largest round region
+    // with field colour around it (a ball on the carpet; cheap: 16 lookups on a ring).
+    float key;
+    if (prediction != nullptr) {
+      const float du = r.cu_px - prediction->u_px, dv = r.cv_px - prediction->v_px;
+      key = -(du * du + dv * dv);
+    } else {
+      key = r.area_px * r.roundness * (0.2f + FieldContext(image, lut, r));
+      stats.pixels_read += kContextSamples;
+    }
+    if (best < 0 || (in_field && !best_in_field) || (in_field == best_in_field && key > best_key)) {
+      best = static_cast<int>(i);
+      best_key = key;
+      best_in_field = in_field;
+    }
+  }
+  stats.candidates = candidates;
+  stats.holes = holes;
+  stats.overflows = regions_.overflows();
+  stats.pixels_read += stats.scan_pixels + attention_reads + regions_.pixels_read();
+  if (best < 0) return Status::Ok();
+
+  const Region& r = regions[static_cast<size_t>(best)];
+  chosen_ = best;
+  out.found = true;
+  out.u_px = r.cu_px;
+  out.v_px = r.cv_px;
+  out.area_px = r.area_px;
+  out.radius_px = std::sqrt(r.area_px / 3.14159265f);
+  out.roundness = r.roundness;
+  // Confidence: roundness, discounted when the field test failed or was unavailable, when other
+  // candidates compete, and with distance from the prediction.
+  float conf = r.roundness;
+  if (config_.in_field != nullptr && !best_in_field) conf *= 0.5f;
+  if (candidates > 1) conf *= 1.0f / (1.0f + 0.25f * static_cast<float>(candidates - 1));
+  if (prediction != nullptr && prediction->sigma_px > 0.0f) {
+    const float d2 = -best_key / (9.0f * prediction->sigma_px * prediction->sigma_px);
+    conf *= 1.0f / (1.0f + d2);
+  }
+  out.confidence = conf;
+  return Status::Ok();
+}
+
+}  // namespace bv

@@ -1,0 +1,86 @@
+#pragma once
+// Ball finding in one camera image (paper IV-A): LUT classification along the precomputed
+// scanlines plus Monte-Carlo attention samples around the predicted position give ball-coloured
+// seeds; each seed's region is traced once (core/contour); the ball is chosen by minimum
+// roundness, "inside the field" (optional caller predicate) and closeness to the prediction.
+// One BallFinder per camera, statically allocated; Find() never allocates.
+#include <cstddef>
+#include <cstdint>
+
+#include "core/color_lut/color_lut.h"
+#include "core/common/ball_state.h"
+#include "core/common/image.h"
+#include "core/common/status.h"
+#include "core/contour/contour.h"
+#include "core/scanline/scanline.h"
+
+namespace bv {
+
+/// Predicted image position of the ball (from the filter through the calibration).
+struct Prediction {
+  float u_px = 0, v_px = 0;
+  float sigma_px = 8;  // 1-sigma spread of the attention samples
+};
+
+/// Per-image counters of the front end.
+struct FrontEndStats {
+  uint32_t pixels_read = 0;  // LUT lookups: scanlines + attention + contour following
+  uint32_t scan_pixels = 0;
+  uint32_t attention_samples = 0;  // samples inside the image
+  uint32_t seeds = 0;              // ball-coloured seeds handed to the contour stage
+  uint32_t regions = 0;            // outer contours traced
+  uint32_t holes = 0;              // hole contours traced
+  uint32_t candidates = 0;         // regions passing area and roundness
+  uint32_t overflows = 0;          // region or chain capacity reached (regions were skipped)
+};
+
+/// True if the ground point under image point (u, v) is inside the playing field. Supplied by
+/// the caller (image-to-ground map from the calibration + robot pose from the main computer).
+using InFieldFn = bool (*)(void* context, float u_px, float v_px);
+
+struct BallFinderConfig {
+  float min_roundness = 0.35f;  // occluded balls (strut, robot) keep > 0.4 in the rendered sets
+  float min_area_px = 10.0f;    // a 4 px disc covers ~12 px
+  int attention_samples = 64;   // N <= kMaxAttentionSamples
+  uint32_t prng_seed = 0x2545F491u;
+  InFieldFn in_field = nullptr;  // optional
+  void* in_field_context = nullptr;
+};
+
+class BallFinder {
+ public:
+  static constexpr int kMaxAttentionSamples = 256;
+  static constexpr size_t kMaxRegions = 48;
+  static constexpr size_t kMaxChainCodes = 8192;
+
+  /// `scanlines` must outlive the finder. Errors: kFailedPrecondition (table not built),
+  /// kInvalidArgument (bad config).
+  Status Init(const ScanlineTableBase& scanlines, const BallFinderConfig& config);
+  /// Finds at most one ball. `prediction` may be null. Always fills `out` and `stats`.
+  /// Errors: kFailedPrecondition (not initialised), kInvalidArgument (frame size differs from the
+  /// scanline table, null data, short stride). Overflows are counted in stats, not errors.
+  Status Find(const YuyvImage& image, const ColorLut& lut, const Prediction* prediction,
+              BallDetection& out, FrontEndStats& stats);
+
+  // Debug views of the last Find (annotate, tests).
+  const RegionSetBase& regions() const { return regions_; }
+  int attention_count() const { return attention_count_; }
+  int16_t attention_u(int i) const { return attention_u_[i]; }
+  int16_t attention_v(int i) const { return attention_v_[i]; }
+  int chosen_region() const { return chosen_; }  // index into regions(), -1 if none
+
+ private:
+  uint32_t NextRandom();
+  void Seed(const YuyvImage& image, const ColorLut& lut, int u, int v, FrontEndStats& stats);
+
+  const ScanlineTableBase* scan_ = nullptr;
+  BallFinderConfig config_;
+  uint32_t rng_ = 1;
+  RegionSet<kMaxRegions, kMaxChainCodes> regions_;
+  int16_t attention_u_[kMaxAttentionSamples] = {};
+  int16_t attention_v_[kMaxAttentionSamples] = {};
+  int attention_count_ = 0;
+  int chosen_ = -1;
+};
+
+}  // namespace bv

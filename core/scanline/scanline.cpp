@@ -1,0 +1,344 @@
+#include "core/scanline/scanline.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace bv {
+namespace {
+
+constexpr float kPi = 3.14159265358979f;
+constexpr float kSqrt2 = 1.41421356f;
+constexpr float kRadialResolutionPx = 0.5f;  // radius grid for level starts and step changes
+constexpr int kMaxRadialLines = 4096;
+// Along-line steps are quantised to these values so a line splits into few segments.
+constexpr float kSteps[] = {1.0f, 1.5f, 2.0f, 2.5f,  3.0f,  4.0f,
+                            5.0f, 6.0f, 8.0f, 10.0f, 12.0f, 16.0f};
+
+bool ValidProfile(const DiameterProfile& p) {
+  if (p.count < 0 || p.count > DiameterProfile::kMaxPoints) return false;
+  for (int i = 0; i < p.count; ++i) {
+    if (!std::isfinite(p.at_px[i]) || !std::isfinite(p.diameter_px[i]) || p.diameter_px[i] < 2.0f) {
+      return false;
+    }
+    if (i > 0 && !(p.at_px[i] > p.at_px[i - 1])) return false;
+  }
+  return true;
+}
+
+float QuantiseStep(float gap_px) {
+  float best = kSteps[0];
+  for (float s : kSteps) {
+    if (s <= gap_px) best = s;
+  }
+  return best;
+}
+
+float AngleDiffDeg(float a, float b) {
+  float d = std::fmod(std::fabs(a - b), 360.0f);
+  return d > 180.0f ? 360.0f - d : d;
+}
+
+}  // namespace
+
+float DiameterProfile::At(float x) const {
+  if (count <= 0) return 0.0f;
+  if (x <= at_px[0]) return diameter_px[0];
+  for (int i = 1; i < count; ++i) {
+    if (x <= at_px[i]) {
+      const float t = (x - at_px[i - 1]) / (at_px[i] - at_px[i - 1]);
+      return diameter_px[i - 1] + t * (diameter_px[i] - diameter_px[i - 1]);
+    }
+  }
+  return diameter_px[count - 1];
+}
+
+OmniScanConfig ReferenceOmniScanConfig(float center_u, float center_v) {
+  OmniScanConfig c;
+  c.center_u = center_u;
+  c.center_v = center_v;
+  c.inner_radius_px = 54.0f;   // own body / mirror holder end at r ~ 52 px
+  c.outer_radius_px = 219.0f;  // mirror rim: the self mask closes at r ~ 220 px
+  // Strut wedges at image angles ~14.5, ~134.8, ~256.5 deg, about 4 deg wide.
+  c.struts[0] = {14.5f, 2.5f};
+  c.struts[1] = {134.8f, 2.5f};
+  c.struts[2] = {256.5f, 2.5f};
+  c.strut_count = 3;
+  c.margin_px = 0.4f;
+
+  // Smallest ball diameter by radius (ground ball; a raised ball at the same radius is
+  // closer and larger): 24 px at 107, 12 at 162, 8 at 177, 7.4 at 180 (5.5 m), 4 px at the rim.
+  const float at[] = {100.0f, 150.0f, 165.0f, 178.0f, 192.0f, 205.0f};
+  const float dia[] = {20.0f, 14.0f, 10.0f, 7.0f, 5.0f, 4.0f};
+  for (int i = 0; i < 6; ++i) {
+    c.diameter.at_px[i] = at[i];
+    c.diameter.diameter_px[i] = dia[i];
+  }
+  c.diameter.count = 6;
+  return c;
+}
+
+PerspScanConfig ReferencePerspScanConfig() {
+  PerspScanConfig c;
+  c.diameter.at_px[0] = 0.0f;
+  c.diameter.diameter_px[0] = 8.0f;  // ~11 m away with fx = 378 px
+  c.diameter.count = 1;
+  return c;
+}
+
+void ScanlineTableBase::Reset(int width, int height) {
+  pixels_ = 0;
+  used_ = 0;
+  width_ = width;
+  height_ = height;
+  for (uint16_t& s : row_start_) s = 0;
+  for (uint16_t& f : row_first_u_) f = 0;
+}
+
+Status ScanlineTableBase::AppendRow(int v, const uint16_t* us, int n) {
+  row_start_[v] = static_cast<uint16_t>(used_);
+  row_first_u_[v] = n > 0 ? us[0] : 0;
+  for (int k = 0; k < n; ++k) {
+    int d = k == 0 ? 0 : us[k] - us[k - 1];
+    // A gap wider than a byte is bridged by escape entries (0 = advance 255, read nothing);
+    // rare: sparse rows near the robot.
+    while (true) {
+      if (used_ >= capacity_) {
+        return Status(StatusCode::kResourceExhausted, "scanlines: more samples than the capacity");
+      }
+      if (d <= 255) break;
+      delta_[used_++] = 0;
+      d -= 255;
+    }
+    delta_[used_++] = static_cast<uint8_t>(d);
+    ++pixels_;
+  }
+  row_start_[v + 1] = static_cast<uint16_t>(used_);
+  return Status::Ok();
+}
+
+namespace {
+
+// Sorts (insertion; rows hold a few dozen samples) and removes duplicates; returns the count.
+int SortUnique(uint16_t* us, int n) {
+  for (int i = 1; i < n; ++i) {
+    const uint16_t x = us[i];
+    int j = i - 1;
+    for (; j >= 0 && us[j] > x; --j) us[j + 1] = us[j];
+    us[j + 1] = x;
+  }
+  int m = 0;
+  for (int i = 0; i < n; ++i) {
+    if (m == 0 || us[m - 1] != us[i]) us[m++] = us[i];
+  }
+  return m;
+}
+
+struct Band {
+  float from, to, step;
+};
+
+// Row buffer for the build (start-up only).
+constexpr int kMaxRowSamples = 2048;  // 4 KB .bss, start-up only
+uint16_t g_row[kMaxRowSamples];
+
+}  // namespace
+
+Status ScanlineTableBase::BuildOmni(const OmniScanConfig& c, int width, int height) {
+  Reset(0, 0);
+  if (width <= 0 || height <= 0 || width > 4096 || height > kMaxRows) {
+    return Status(StatusCode::kInvalidArgument, "BuildOmni: image size out of range");
+  }
+  if (!std::isfinite(c.center_u) || !std::isfinite(c.center_v) || c.center_u < 0 ||
+      c.center_v < 0 || c.center_u > width - 1 || c.center_v > height - 1) {
+    return Status(StatusCode::kInvalidArgument, "BuildOmni: centre outside the image");
+  }
+  if (!(c.inner_radius_px >= 1.0f) || !(c.outer_radius_px > c.inner_radius_px) ||
+      c.outer_radius_px > 4000.0f) {
+    return Status(StatusCode::kInvalidArgument, "BuildOmni: need 1 <= inner radius < outer radius");
+  }
+  if (!ValidProfile(c.diameter) || c.strut_count < 0 ||
+      c.strut_count > OmniScanConfig::kMaxStruts || !(c.margin_px >= 0.0f)) {
+    return Status(StatusCode::kInvalidArgument,
+                  "BuildOmni: bad diameter profile, struts or margin");
+  }
+  const auto gap = [&c](float r) {
+    const float d = c.diameter.count > 0 ? c.diameter.At(r) : 4.0f;
+    return std::max(1.0f, (d * 0.5f - c.margin_px) * kSqrt2);
+  };
+  const float r_in = c.inner_radius_px, r_out = c.outer_radius_px;
+
+  // Radial bands of constant (quantised) step along a line.
+  constexpr int kMaxBands = 32;
+  Band bands[kMaxBands];
+  int band_count = 0;
+  {
+    float from = r_in;
+    float step = QuantiseStep(gap(r_in));
+    for (float r = r_in + kRadialResolutionPx; r <= r_out + kRadialResolutionPx;
+         r += kRadialResolutionPx) {
+      const float s = r > r_out ? -1.0f : QuantiseStep(gap(r));
+      if (s == step) continue;
+      if (band_count >= kMaxBands) {
+        return Status(StatusCode::kInvalidArgument,
+                      "BuildOmni: profile needs more than 32 step bands");
+      }
+      bands[band_count++] = Band{from, std::min(r - kRadialResolutionPx, r_out), step};
+      from = r;
+      step = s;
+    }
+  }
+
+  // Lines needed at radius r: 2*pi*r / gap(r). Level 0 serves the inner radius; each further
+  // level doubles the count and starts where the previous level's arc spacing gets too wide.
+  int n0 = 8;
+  while (2 * kPi * r_in / n0 > gap(r_in) && n0 < kMaxRadialLines) n0 *= 2;
+  float level_start[16] = {r_in};
+  int levels = 1;
+  for (float r = r_in; r <= r_out; r += kRadialResolutionPx) {
+    while (2 * kPi * r / (n0 << (levels - 1)) > gap(r)) {
+      if ((n0 << levels) > kMaxRadialLines || levels >= 16) {
+        return Status(StatusCode::kInvalidArgument, "BuildOmni: profile needs > 4096 radial lines");
+      }
+      level_start[levels++] = r;
+    }
+  }
+  const int n_lines = n0 << (levels - 1);
+
+  // Calls fn(cs, sn, r_start, r_end) for every radial line outside the strut wedges.
+  const auto for_each_line = [&](auto&& fn) {
+    for (int i = 0; i < n_lines; ++i) {
+      int level = 0;
+      if (i % (n_lines / n0) != 0) {
+        level = levels - 1;
+        for (int k = 1; k < levels; ++k) {
+          if (i % (n_lines / (n0 << k)) == 0) {
+            level = k;
+            break;
+          }
+        }
+      }
+      const float angle = 2 * kPi * static_cast<float>(i) / static_cast<float>(n_lines);
+      const float angle_deg = angle * (180.0f / kPi);
+      bool in_strut = false;
+      for (int s = 0; s < c.strut_count; ++s) {
+        in_strut |= AngleDiffDeg(angle_deg, c.struts[s].angle_deg) <= c.struts[s].half_width_deg;
+      }
+      if (in_strut) continue;
+      const float cs = std::cos(angle), sn = std::sin(angle);
+      float r_end = r_out;  // clipped to the image (pixel centres 0..size-1 after rounding)
+      if (cs > 1e-6f) r_end = std::min(r_end, (width - 0.51f - c.center_u) / cs);
+      if (cs < -1e-6f) r_end = std::min(r_end, (-0.49f - c.center_u) / cs);
+      if (sn > 1e-6f) r_end = std::min(r_end, (height - 0.51f - c.center_v) / sn);
+      if (sn < -1e-6f) r_end = std::min(r_end, (-0.49f - c.center_v) / sn);
+      if (r_end >= level_start[level]) fn(cs, sn, level_start[level], r_end);
+    }
+  };
+  // Samples of one line: r_start, then the band steps; between bands the step shrinks at once.
+  const auto for_each_sample = [&](float r_start, float r_end, auto&& fn) {
+    float last = -1.0f;
+    for (int b = 0; b < band_count; ++b) {
+      if (last < 0 && r_start > bands[b].to) continue;
+      float r = last < 0 ? r_start : last + bands[b].step;
+      const float end = std::min(bands[b].to, r_end);
+      for (; r <= end + 1e-4f; r += bands[b].step) {
+        last = r;
+        if (!fn(r)) return;
+      }
+      if (last >= r_end) return;
+    }
+  };
+
+  width_ = width;
+  height_ = height;
+  for (int v = 0; v < height; ++v) {
+    int n = 0;
+    bool overflow = false;
+    for_each_line([&](float cs, float sn, float r_start, float r_end) {
+      const float va = c.center_v + r_start * sn, vb = c.center_v + r_end * sn;
+      if (v < std::min(va, vb) - 1.0f || v > std::max(va, vb) + 1.0f) return;
+      for_each_sample(r_start, r_end, [&](float r) {
+        const int sv = static_cast<int>(std::floor(c.center_v + 0.5f + r * sn));
+        if (sv == v) {
+          if (n >= kMaxRowSamples) {
+            overflow = true;
+            return false;
+          }
+          g_row[n++] = static_cast<uint16_t>(std::floor(c.center_u + 0.5f + r * cs));
+        }
+        return !((sn > 0 && sv > v) || (sn < 0 && sv < v));
+      });
+    });
+    if (overflow) {
+      Reset(0, 0);
+      return Status(StatusCode::kResourceExhausted, "BuildOmni: row sample buffer overflow");
+    }
+    const Status st = AppendRow(v, g_row, SortUnique(g_row, n));
+    if (!st.ok()) {
+      Reset(0, 0);
+      return st;
+    }
+  }
+  return Status::Ok();
+}
+
+namespace {
+// Largest distance from any point of a brick lattice (row step s, row spacing h, alternate rows
+// shifted by k) to its nearest lattice point: the larger circumradius of its two triangles.
+float BrickCoverRadius(int s, int h, int k) {
+  const auto circ = [](float ax, float ay, float bx, float by, float cx, float cy) {
+    const float a = std::hypot(bx - cx, by - cy), b = std::hypot(ax - cx, ay - cy),
+                c = std::hypot(ax - bx, ay - by);
+    const float area2 = std::fabs((bx - ax) * (cy - ay) - (cx - ax) * (by - ay));
+    return a * b * c / (2.0f * area2);
+  };
+  const float fs = static_cast<float>(s), fh = static_cast<float>(h), fk = static_cast<float>(k);
+  return std::max(circ(0, 0, fs, 0, fk, fh), circ(fk, fh, fk + fs, fh, fs, 0));
+}
+}  // namespace
+
+Status ScanlineTableBase::BuildPersp(const PerspScanConfig& c, int width, int height) {
+  Reset(0, 0);
+  if (width <= 0 || height <= 0 || width > 4096 || height > kMaxRows) {
+    return Status(StatusCode::kInvalidArgument, "BuildPersp: image size out of range");
+  }
+  if (!ValidProfile(c.diameter))
+    return Status(StatusCode::kInvalidArgument, "BuildPersp: bad profile");
+  const int last = c.last_row < 0 ? height - 1 : c.last_row;
+  if (c.first_row < 0 || last >= height || last < c.first_row) {
+    return Status(StatusCode::kInvalidArgument, "BuildPersp: row range outside the image");
+  }
+  width_ = width;
+  height_ = height;
+  int row = 0;
+  int next = c.first_row;
+  for (int v = 0; v < height; ++v) {
+    int n = 0;
+    if (v == next && v <= last) {
+      const float d = c.diameter.count > 0 ? c.diameter.At(static_cast<float>(v)) : 8.0f;
+      int s = std::min(255, std::max(1, static_cast<int>(d * 0.8660f)));
+      int h = 1;
+      for (; s > 1; --s) {
+        h = std::max(1, static_cast<int>(std::lround(s * 0.866f)));
+        if (BrickCoverRadius(s, h, s / 2) < d * 0.5f - 0.05f) break;
+      }
+      if (s == 1) h = 1;
+      for (int u = (row & 1) ? s / 2 : 0; u < width; u += s) {
+        if (n >= kMaxRowSamples) {
+          Reset(0, 0);
+          return Status(StatusCode::kResourceExhausted, "BuildPersp: row sample buffer overflow");
+        }
+        g_row[n++] = static_cast<uint16_t>(u);
+      }
+      ++row;
+      next = v + h;
+    }
+    const Status st = AppendRow(v, g_row, n);
+    if (!st.ok()) {
+      Reset(0, 0);
+      return st;
+    }
+  }
+  return Status::Ok();
+}
+
+}  // namespace bv

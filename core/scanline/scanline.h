@@ -1,0 +1,139 @@
+#pragma once
+// Precomputed scan patterns: the pixels the front end reads. Built once at start-up into a
+// fixed-capacity, row-major sample table (one byte a sample plus a 4 KB row index).
+//   omni:  radial lines from the image centre, more lines and shorter steps further out where
+//          the ball is smaller; the robot body (inner radius) and the strut sectors are skipped.
+//   persp: a brick lattice of rows (alternate rows shifted by half a step).
+// Spacing follows the smallest ball diameter expected at each radius (or row band): every disc
+// of that diameter has the centre of at least one scan pixel inside it (host_tests/scanline_test).
+#include <cstddef>
+#include <cstdint>
+#include <span>
+
+#include "core/common/status.h"
+
+namespace bv {
+
+/// Smallest ball diameter (px) expected at an image radius (omni) or row (persp), as a
+/// piecewise-linear profile; beyond the ends the end values hold.
+struct DiameterProfile {
+  static constexpr int kMaxPoints = 8;
+  float at_px[kMaxPoints] = {};        // radius (omni) or row v (persp), increasing
+  float diameter_px[kMaxPoints] = {};  // >= 2
+  int count = 0;
+  float At(float x) const;
+};
+
+struct StrutSector {
+  float angle_deg = 0;       // image angle atan2(v - cv, u - cu), degrees, v down
+  float half_width_deg = 0;  // lines within this half width are not scanned
+};
+
+struct OmniScanConfig {
+  static constexpr int kMaxStruts = 4;
+  float center_u = 0, center_v = 0;  // from OmniCalibration::center_u/v
+  float inner_radius_px = 0;         // robot's own body
+  float outer_radius_px = 0;         // mirror rim
+  StrutSector struts[kMaxStruts];
+  int strut_count = 0;
+  DiameterProfile diameter;  // default when count == 0: 4 px everywhere
+  float margin_px = 0.5f;    // rounding allowance in the spacing rule
+};
+
+struct PerspScanConfig {
+  DiameterProfile diameter;          // over image rows; default when count == 0: 8 px everywhere
+  int first_row = 0, last_row = -1;  // -1: last image row
+};
+
+/// Reference-rig defaults (render/README.md; rig.json): mirror circle, body radius and struts
+/// measured on omni_selfmask.png, ball diameters from the rendered truth. The centre must still
+/// come from the calibration when one exists.
+OmniScanConfig ReferenceOmniScanConfig(float center_u, float center_v);
+PerspScanConfig ReferencePerspScanConfig();
+
+class ScanlineTableBase {
+ public:
+  static constexpr int kMaxRows = 1024;
+
+  /// Errors: kInvalidArgument (bad geometry/profile),
+  /// kResourceExhausted (more samples than the capacity; the table is left empty).
+  Status BuildOmni(const OmniScanConfig& config, int width, int height);
+  Status BuildPersp(const PerspScanConfig& config, int width, int height);
+
+  uint32_t pixel_count() const { return pixels_; }
+  int width() const { return width_; }
+  int height() const { return height_; }
+  bool built() const { return pixels_ > 0; }
+  size_t capacity() const { return capacity_; }
+
+  /// Calls fn(v, first_u, deltas, count) for every row with samples, top to bottom: the samples
+  /// of row v are u_0 = first_u, u_k = u_{k-1} + deltas[k] (deltas[0] is 0), increasing; an
+  /// entry 0 after the first is an escape: advance 255 and read nothing (gaps > 255 px).
+  template <typename Fn>
+  void ForEachRow(Fn&& fn) const {
+    for (int v = 0; v < height_; ++v) {
+      const int n = row_start_[v + 1] - row_start_[v];
+      if (n > 0) fn(v, static_cast<int>(row_first_u_[v]), delta_ + row_start_[v], n);
+    }
+  }
+
+ protected:
+  ScanlineTableBase(uint8_t* storage, size_t capacity) : delta_(storage), capacity_(capacity) {}
+
+ private:
+  // Appends row v from `us` (sorted, unique); kResourceExhausted on overflow.
+  Status AppendRow(int v, const uint16_t* us, int n);
+  void Reset(int width, int height);
+
+  uint8_t* delta_;
+  size_t capacity_;
+  uint32_t pixels_ = 0;  // samples read per frame
+  uint32_t used_ = 0;    // table entries (samples + escapes)
+  uint16_t row_start_[kMaxRows + 1] = {};
+  uint16_t row_first_u_[kMaxRows] = {};
+  int width_ = 0, height_ = 0;
+};
+
+/// Samples stored row-major (one byte each: the step from the previous sample in the row), so
+/// a frame is read top to bottom like a DMA buffer: the cache and prefetcher see a stream,
+/// where radial order would touch a new row (and page) at almost every sample.
+template <size_t kMaxPixels>
+class ScanlineTable : public ScanlineTableBase {
+  static_assert(kMaxPixels > 0 && kMaxPixels <= 65535);
+
+ public:
+  // storage_ is filled by Build() before any read; the base tracks how much is valid.
+  // cppcheck-suppress uninitMemberVar
+  ScanlineTable() : ScanlineTableBase(storage_, kMaxPixels) {}
+  ScanlineTable(const ScanlineTable&) = delete;
+  ScanlineTable& operator=(const ScanlineTable&) = delete;
+
+ private:
+  uint8_t storage_[kMaxPixels];
+};
+
+inline constexpr size_t kOmniScanPixels = 20000;   // 20 KB (+ 4 KB row index)
+inline constexpr size_t kPerspScanPixels = 16384;  // 16 KB (+ 4 KB row index)
+// Earlier names of the two capacities (core/pipeline.h uses them).
+inline constexpr size_t kOmniScanSegments = kOmniScanPixels;
+inline constexpr size_t kPerspScanSegments = kPerspScanPixels;
+inline constexpr size_t kOmniScanLines = kOmniScanPixels;
+inline constexpr size_t kPerspScanLines = kPerspScanPixels;
+
+/// Calls fn(u, v) for every sample of the table, row-major.
+template <typename Fn>
+void ForEachScanPixel(const ScanlineTableBase& t, Fn&& fn) {
+  t.ForEachRow([&fn](int v, int u, const uint8_t* d, int n) {
+    fn(u, v);
+    for (int k = 1; k < n; ++k) {
+      if (d[k] == 0) {
+        u += 255;
+        continue;
+      }
+      u += d[k];
+      fn(u, v);
+    }
+  });
+}
+
+}  // namespace bv

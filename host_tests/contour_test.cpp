@@ -1,0 +1,205 @@
+// Contour following and chain-code descriptors on synthetic shapes with known answers.
+#include "core/contour/contour.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <functional>
+#include <memory>
+#include <vector>
+
+namespace bv {
+namespace {
+
+constexpr uint8_t kBallY = 200, kBackY = 50;
+
+// Ball and background differ in Y only, so shapes are exact per pixel despite shared chroma.
+struct Frame {
+  int w = 640, h = 480;
+  std::vector<uint8_t> data = std::vector<uint8_t>(640 * 480 * 2, 128);
+  Frame() {
+    for (size_t i = 0; i < data.size(); i += 2) data[i] = kBackY;
+  }
+  void Set(int u, int v, bool ball) {
+    data[(static_cast<size_t>(v) * w + u) * 2] = ball ? kBallY : kBackY;
+  }
+  void Draw(const std::function<bool(int, int)>& inside) {
+    for (int v = 0; v < h; ++v)
+      for (int u = 0; u < w; ++u)
+        if (inside(u, v)) Set(u, v, true);
+  }
+  YuyvImage view() const { return MakeYuyvImage(data.data(), w, h); }
+};
+
+const ColorLut& Lut() {
+  static const std::unique_ptr<ColorLut> lut = [] {
+    auto l = std::make_unique<ColorLut>();
+    l->Fill(ColorClass::kField);
+    for (int y = 192; y < 256; ++y)
+      l->Set(ColorLut::Index(static_cast<uint8_t>(y), 128, 128), ColorClass::kBall);
+    return l;
+  }();
+  return *lut;
+}
+
+using Set32 = RegionSet<32, 8192>;
+
+TEST(ContourTest, RectangleHasExactDescriptors) {
+  Frame f;
+  f.Draw([](int u, int v) { return u >= 100 && u < 120 && v >= 50 && v < 60; });
+  auto rs = std::make_unique<Set32>();
+  ASSERT_EQ(rs->TraceSeed(f.view(), Lut(), ColorClass::kBall, 110, 55), SeedOutcome::kNewRegion);
+  ASSERT_EQ(rs->regions().size(), 1u);
+  const Region& r = rs->regions()[0];
+  EXPECT_FALSE(r.hole);
+  EXPECT_EQ(r.start_u, 100);
+  EXPECT_EQ(r.u_min, 100);
+  EXPECT_EQ(r.u_max, 119);
+  EXPECT_EQ(r.v_min, 50);
+  EXPECT_EQ(r.v_max, 59);
+  EXPECT_EQ(r.chain_length, 2u * 19 + 2 * 9);
+  EXPECT_FLOAT_EQ(r.polygon_area_px, 19.0f * 9.0f);
+  EXPECT_FLOAT_EQ(r.area_px, 200.0f);
+  EXPECT_NEAR(r.cu_px, 109.5f, 1e-4);
+  EXPECT_NEAR(r.cv_px, 54.5f, 1e-4);
+  EXPECT_NEAR(r.perimeter_px, 0.980f * 56 - 0.091f * 4, 1e-3);
+  // The chain closes.
+  int du = 0, dv = 0;
+  for (uint8_t c : rs->chain(r)) {
+    du += kChainDu[c];
+    dv += kChainDv[c];
+  }
+  EXPECT_EQ(du, 0);
+  EXPECT_EQ(dv, 0);
+}
+
+TEST(ContourTest, DiscAreaCentroidPerimeterRoundness) {
+  for (float radius : {3.0f, 6.5f, 12.0f, 30.0f}) {
+    const float cx = 200.3f, cy = 150.7f;
+    Frame f;
+    int count = 0;
+    double sx = 0, sy = 0;
+    f.Draw([&](int u, int v) {
+      const bool in = std::hypot(u - cx, v - cy) <= radius;
+      if (in) ++count, sx += u, sy += v;
+      return in;
+    });
+    auto rs = std::make_unique<Set32>();
+    ASSERT_EQ(rs->TraceSeed(f.view(), Lut(), ColorClass::kBall, 200, 151), SeedOutcome::kNewRegion);
+    const Region& r = rs->regions()[0];
+    EXPECT_FLOAT_EQ(r.area_px, static_cast<float>(count)) << radius;  // Pick's theorem, exact
+    EXPECT_NEAR(r.cu_px, sx / count, 0.05) << radius;
+    EXPECT_NEAR(r.cv_px, sy / count, 0.05) << radius;
+    EXPECT_NEAR(r.cu_px, cx, 0.15) << radius;
+    EXPECT_NEAR(r.cv_px, cy, 0.15) << radius;
+    // The boundary pixel centres lie ~0.5 px inside the true circle.
+    EXPECT_NEAR(r.perimeter_px, 2 * 3.14159f * (radius - 0.5f), 0.06f * 2 * 3.14159f * radius)
+        << radius;
+    EXPECT_GT(r.roundness, radius > 5 ? 0.9f : 0.8f) << radius;
+  }
+}
+
+TEST(ContourTest, SinglePixelAndThinLine) {
+  Frame f;
+  f.Set(10, 10, true);
+  f.Draw([](int u, int v) { return v == 100 && u >= 50 && u < 80; });
+  f.Draw([](int u, int v) { return u - 300 == v - 200 && u >= 300 && u < 320; });  // diagonal
+  auto rs = std::make_unique<Set32>();
+  ASSERT_EQ(rs->TraceSeed(f.view(), Lut(), ColorClass::kBall, 10, 10), SeedOutcome::kNewRegion);
+  ASSERT_EQ(rs->TraceSeed(f.view(), Lut(), ColorClass::kBall, 70, 100), SeedOutcome::kNewRegion);
+  ASSERT_EQ(rs->TraceSeed(f.view(), Lut(), ColorClass::kBall, 310, 210), SeedOutcome::kNewRegion);
+  const auto regions = rs->regions();
+  EXPECT_FLOAT_EQ(regions[0].area_px, 1.0f);
+  EXPECT_EQ(regions[0].chain_length, 0u);
+  EXPECT_FLOAT_EQ(regions[1].area_px, 30.0f);
+  EXPECT_NEAR(regions[1].cu_px, 64.5f, 1e-3);
+  EXPECT_FLOAT_EQ(regions[1].roundness, 0.0f);
+  EXPECT_FLOAT_EQ(regions[2].area_px, 20.0f);
+  EXPECT_NEAR(regions[2].cu_px, 309.5f, 1e-3);
+  EXPECT_NEAR(regions[2].cv_px, 209.5f, 1e-3);
+}
+
+TEST(ContourTest, EachRegionTracedOnceWhateverTheSeeds) {
+  Frame f;
+  // A U shape: seeds in both arms and the base belong to one region.
+  f.Draw([](int u, int v) {
+    return v >= 100 && v < 160 && u >= 100 && u < 160 && !(u >= 115 && u < 145 && v < 145);
+  });
+  auto rs = std::make_unique<Set32>();
+  EXPECT_EQ(rs->TraceSeed(f.view(), Lut(), ColorClass::kBall, 150, 110), SeedOutcome::kNewRegion);
+  const uint32_t reads_after_first = rs->pixels_read();
+  EXPECT_EQ(rs->TraceSeed(f.view(), Lut(), ColorClass::kBall, 105, 110),
+            SeedOutcome::kAlreadyTraced);
+  EXPECT_EQ(rs->TraceSeed(f.view(), Lut(), ColorClass::kBall, 130, 150),
+            SeedOutcome::kAlreadyTraced);
+  EXPECT_EQ(rs->TraceSeed(f.view(), Lut(), ColorClass::kBall, 158, 140),
+            SeedOutcome::kAlreadyTraced);
+  EXPECT_EQ(rs->TraceSeed(f.view(), Lut(), ColorClass::kBall, 130, 120), SeedOutcome::kNotInClass);
+  EXPECT_EQ(rs->regions().size(), 1u);
+  EXPECT_LT(rs->pixels_read() - reads_after_first, 200u);  // walks, no re-trace
+  EXPECT_FLOAT_EQ(rs->regions()[0].area_px, 60.0f * 60.0f - 30.0f * 45.0f);
+}
+
+TEST(ContourTest, HoleIsTracedOnceAndFilled) {
+  const float cx = 320, cy = 240;
+  Frame f;
+  f.Draw([&](int u, int v) {
+    const float d = std::hypot(u - cx, v - cy);
+    return d <= 20.0f &&
+           !(u >= 322 && u < 330 && v >= 236 && v < 244);  // highlight right of centre
+  });
+  auto rs = std::make_unique<Set32>();
+  // Seed right of the highlight: walks left into the hole first.
+  EXPECT_EQ(rs->TraceSeed(f.view(), Lut(), ColorClass::kBall, 335, 240), SeedOutcome::kNewRegion);
+  ASSERT_EQ(rs->regions().size(), 2u);
+  EXPECT_TRUE(rs->regions()[0].hole);
+  EXPECT_FALSE(rs->regions()[1].hole);
+  EXPECT_NEAR(rs->regions()[1].cu_px, cx, 0.1);
+  EXPECT_NEAR(rs->regions()[1].cv_px, cy, 0.1);
+  // Another seed right of the hole: no new trace.
+  EXPECT_EQ(rs->TraceSeed(f.view(), Lut(), ColorClass::kBall, 333, 238),
+            SeedOutcome::kAlreadyTraced);
+  EXPECT_EQ(rs->TraceSeed(f.view(), Lut(), ColorClass::kBall, 305, 240),
+            SeedOutcome::kAlreadyTraced);
+  EXPECT_EQ(rs->regions().size(), 2u);
+}
+
+TEST(ContourTest, CapacityOverflowIsReportedAndBounded) {
+  Frame f;
+  for (int i = 0; i < 40; ++i) f.Set(10 + 4 * i, 20, true);
+  auto rs = std::make_unique<RegionSet<8, 8192>>();
+  int full = 0;
+  for (int i = 0; i < 40; ++i) {
+    full += rs->TraceSeed(f.view(), Lut(), ColorClass::kBall, 10 + 4 * i, 20) ==
+            SeedOutcome::kRegionsFull;
+  }
+  EXPECT_EQ(rs->regions().size(), 8u);
+  EXPECT_EQ(full, 32);
+  EXPECT_EQ(rs->overflows(), 1u);
+
+  Frame big;
+  big.Draw([](int u, int v) { return u >= 100 && u < 300 && v >= 100 && v < 300; });
+  auto small = std::make_unique<RegionSet<4, 64>>();
+  EXPECT_EQ(small->TraceSeed(big.view(), Lut(), ColorClass::kBall, 200, 200),
+            SeedOutcome::kChainFull);
+  EXPECT_EQ(small->regions().size(), 0u);
+  EXPECT_EQ(small->overflows(), 1u);
+  small->Clear();
+  EXPECT_EQ(small->overflows(), 0u);
+}
+
+TEST(ContourTest, WholeFrameInClassTracesTheBorder) {
+  Frame f;
+  f.Draw([](int, int) { return true; });
+  auto rs = std::make_unique<Set32>();
+  EXPECT_EQ(rs->TraceSeed(f.view(), Lut(), ColorClass::kBall, 320, 240), SeedOutcome::kNewRegion);
+  EXPECT_EQ(rs->TraceSeed(f.view(), Lut(), ColorClass::kBall, 600, 40),
+            SeedOutcome::kAlreadyTraced);
+  const Region& r = rs->regions()[0];
+  EXPECT_FLOAT_EQ(r.area_px, 640.0f * 480.0f);
+  EXPECT_NEAR(r.cu_px, 319.5f, 1e-3);
+  EXPECT_EQ(r.chain_length, 2u * 639 + 2 * 479);
+}
+
+}  // namespace
+}  // namespace bv

@@ -1,0 +1,270 @@
+// BallFinder on synthetic frames: ball choice, attention, bad input, overflow.
+#include "core/detect/detect.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <functional>
+#include <memory>
+#include <random>
+#include <vector>
+
+namespace bv {
+namespace {
+
+constexpr float kCu = 314.2f, kCv = 244.1f;
+constexpr uint8_t kBallY = 200, kBackY = 50;
+
+struct Frame {
+  std::vector<uint8_t> data = std::vector<uint8_t>(kFrameBytes, 128);
+  Frame() { Fill(kBackY); }
+  void Fill(uint8_t y) {
+    for (size_t i = 0; i < data.size(); i += 2) data[i] = y;
+  }
+  void Set(int u, int v, uint8_t y) {
+    if (u >= 0 && v >= 0 && u < kFrameWidth && v < kFrameHeight)
+      data[(static_cast<size_t>(v) * kFrameWidth + u) * 2] = y;
+  }
+  void Disc(float cu, float cv, float r, uint8_t y = kBallY) {
+    for (int v = static_cast<int>(cv - r - 1); v <= cv + r + 1; ++v)
+      for (int u = static_cast<int>(cu - r - 1); u <= cu + r + 1; ++u)
+        if (std::hypot(u - cu, v - cv) <= r) Set(u, v, y);
+  }
+  YuyvImage view() const { return MakeYuyvImage(data.data(), kFrameWidth, kFrameHeight); }
+};
+
+const ColorLut& Lut() {
+  static const std::unique_ptr<ColorLut> lut = [] {
+    auto l = std::make_unique<ColorLut>();
+    l->Fill(ColorClass::kField);
+    for (int y = 192; y < 256; ++y)
+      l->Set(ColorLut::Index(static_cast<uint8_t>(y), 128, 128), ColorClass::kBall);
+    return l;
+  }();
+  return *lut;
+}
+
+struct Omni {
+  std::unique_ptr<ScanlineTable<kOmniScanPixels>> scan =
+      std::make_unique<ScanlineTable<kOmniScanPixels>>();
+  std::unique_ptr<BallFinder> finder = std::make_unique<BallFinder>();
+  explicit Omni(BallFinderConfig cfg = {}) {
+    EXPECT_TRUE(scan->BuildOmni(ReferenceOmniScanConfig(kCu, kCv), kFrameWidth, kFrameHeight).ok());
+    EXPECT_TRUE(finder->Init(*scan, cfg).ok());
+  }
+};
+
+TEST(DetectTest, FindsADiscWithSubPixelCentroidReadingFewPixels) {
+  Omni o;
+  Frame f;
+  f.Disc(455.9f, 363.3f, 3.0f);  // r = 185 px from the centre: ~7 px balls expected there
+  BallDetection d;
+  FrontEndStats s;
+  ASSERT_TRUE(o.finder->Find(f.view(), Lut(), nullptr, d, s).ok());
+  ASSERT_TRUE(d.found);
+  // Against the centroid of the digitised disc (its pixel set), and loosely the true centre.
+  double su = 0, sv = 0;
+  int n = 0;
+  for (int v = 355; v < 372; ++v)
+    for (int u = 448; u < 464; ++u)
+      if (std::hypot(u - 455.9f, v - 363.3f) <= 3.0f) su += u, sv += v, ++n;
+  EXPECT_NEAR(d.u_px, su / n, 0.1);
+  EXPECT_NEAR(d.v_px, sv / n, 0.1);
+  EXPECT_NEAR(d.u_px, 455.9f, 0.3f);
+  EXPECT_NEAR(d.v_px, 363.3f, 0.3f);
+  EXPECT_NEAR(d.radius_px, 3.0f, 0.4f);
+  EXPECT_GT(d.roundness, 0.85f);
+  EXPECT_GT(d.confidence, 0.5f);
+  EXPECT_EQ(s.regions, 1u);
+  EXPECT_GE(s.seeds, 1u);
+  EXPECT_EQ(s.overflows, 0u);
+  EXPECT_LT(s.pixels_read, kFrameWidth * kFrameHeight / 15);  // < 7 % of the frame
+  EXPECT_EQ(s.scan_pixels, o.scan->pixel_count());
+}
+
+TEST(DetectTest, BadInputIsRejected) {
+  BallFinder unready;
+  Frame f;
+  BallDetection d;
+  FrontEndStats s;
+  EXPECT_EQ(unready.Find(f.view(), Lut(), nullptr, d, s).code(), StatusCode::kFailedPrecondition);
+  Omni o;
+  const YuyvImage small = MakeYuyvImage(f.data.data(), 320, 240);
+  EXPECT_EQ(o.finder->Find(small, Lut(), nullptr, d, s).code(), StatusCode::kInvalidArgument);
+  YuyvImage null_data = f.view();
+  null_data.data = nullptr;
+  EXPECT_EQ(o.finder->Find(null_data, Lut(), nullptr, d, s).code(), StatusCode::kInvalidArgument);
+  EXPECT_FALSE(d.found);
+  BallFinderConfig cfg;
+  cfg.attention_samples = 100000;
+  EXPECT_EQ(BallFinder().Init(*o.scan, cfg).code(), StatusCode::kInvalidArgument);
+  auto empty = std::make_unique<ScanlineTable<8>>();
+  EXPECT_EQ(BallFinder().Init(*empty, {}).code(), StatusCode::kFailedPrecondition);
+}
+
+TEST(DetectTest, BlackSaturatedAndAllBallFramesAreBounded) {
+  Omni o;
+  BallDetection d;
+  FrontEndStats s;
+  Frame black;
+  black.Fill(0);
+  ASSERT_TRUE(o.finder->Find(black.view(), Lut(), nullptr, d, s).ok());
+  EXPECT_FALSE(d.found);
+  EXPECT_EQ(s.pixels_read, s.scan_pixels);
+  Frame all;
+  all.Fill(255);  // everything ball-coloured
+  ASSERT_TRUE(o.finder->Find(all.view(), Lut(), nullptr, d, s).ok());
+  EXPECT_EQ(s.regions, 1u);  // one region, traced once
+  EXPECT_LT(s.pixels_read, 20u * kFrameWidth * kFrameHeight);
+}
+
+TEST(DetectTest, NoiseFrameOverflowsRegionsAndReportsIt) {
+  Omni o;
+  Frame f;
+  std::mt19937 rng(7);
+  for (int v = 0; v < kFrameHeight; v += 3)
+    for (int u = 0; u < kFrameWidth; u += 3)
+      if (rng() % 3 == 0) f.Set(u, v, kBallY);
+  BallDetection d;
+  FrontEndStats s;
+  ASSERT_TRUE(o.finder->Find(f.view(), Lut(), nullptr, d, s).ok());
+  EXPECT_GE(s.overflows, 1u);
+  EXPECT_EQ(s.regions, BallFinder::kMaxRegions);
+  EXPECT_FALSE(d.found);  // single pixels are below the minimum area
+}
+
+TEST(DetectTest, ChoosesRoundThenInFieldThenNearestPrediction) {
+  Frame f;
+  f.Disc(420, 150, 9);  // round
+  for (int v = 290; v < 296; ++v)
+    for (int u = 180; u < 240; ++u) f.Set(u, v, kBallY);  // elongated
+  f.Disc(250, 330, 10.5f);                                // second round, larger
+  {
+    Omni o;
+    BallDetection d;
+    FrontEndStats s;
+    ASSERT_TRUE(o.finder->Find(f.view(), Lut(), nullptr, d, s).ok());
+    EXPECT_EQ(s.candidates, 2u);    // the bar fails the roundness test
+    EXPECT_NEAR(d.u_px, 250, 0.2);  // no prediction: the larger round region
+  }
+  {
+    Omni o;
+    BallDetection d;
+    FrontEndStats s;
+    Prediction p{415, 155, 6};
+    ASSERT_TRUE(o.finder->Find(f.view(), Lut(), &p, d, s).ok());
+    EXPECT_NEAR(d.u_px, 420, 0.2);  // nearest the prediction
+  }
+  {
+    BallFinderConfig cfg;
+    cfg.in_field = [](void* ctx, float u, float) { return u > *static_cast<float*>(ctx); };
+    static float limit = 300;
+    cfg.in_field_context = &limit;
+    Omni o(cfg);
+    BallDetection d;
+    FrontEndStats s;
+    Prediction p{255, 325, 6};
+    ASSERT_TRUE(o.finder->Find(f.view(), Lut(), &p, d, s).ok());
+    EXPECT_NEAR(d.u_px, 420, 0.2);  // inside the field beats near the prediction
+  }
+}
+
+TEST(DetectTest, AttentionFindsABallBetweenScanlines) {
+  Omni o;
+  // Find a 3 px disc position the scanlines miss (they are laid out for >= 4 px at the rim).
+  std::vector<uint8_t> mark(kFrameWidth * kFrameHeight, 0);
+  ForEachScanPixel(*o.scan, [&](int u, int v) { mark[v * kFrameWidth + u] = 1; });
+  float bu = -1, bv = -1;
+  for (int v = 40; v < 440 && bu < 0; ++v)
+    for (int u = 100; u < 540 && bu < 0; ++u) {
+      const float r = std::hypot(u - kCu, v - kCv);
+      if (r < 120 || r > 200) continue;
+      bool hit = false;
+      for (int dv = -2; dv <= 2; ++dv)
+        for (int du = -2; du <= 2; ++du) hit |= mark[(v + dv) * kFrameWidth + u + du] != 0;
+      if (!hit) bu = static_cast<float>(u), bv = static_cast<float>(v);
+    }
+  ASSERT_GE(bu, 0) << "no gap between scanlines found";
+  Frame f;
+  f.Disc(bu, bv, 2.0f);  // 13 pixels
+  BallDetection d;
+  FrontEndStats s;
+  ASSERT_TRUE(o.finder->Find(f.view(), Lut(), nullptr, d, s).ok());
+  EXPECT_FALSE(d.found);
+  Prediction p{bu + 1.5f, bv - 1.0f, 3.0f};
+  ASSERT_TRUE(o.finder->Find(f.view(), Lut(), &p, d, s).ok());
+  EXPECT_TRUE(d.found);
+  EXPECT_NEAR(d.u_px, bu, 0.2);
+  EXPECT_EQ(s.attention_samples, 64u);
+  // Deterministic: a fresh finder draws the same samples.
+  Omni o2;
+  BallDetection d2;
+  ASSERT_TRUE(o2.finder->Find(f.view(), Lut(), &p, d2, s).ok());
+  ASSERT_EQ(o2.finder->attention_count(), o.finder->attention_count());
+  Omni o3;
+  ASSERT_TRUE(o3.finder->Find(f.view(), Lut(), &p, d2, s).ok());
+  for (int i = 0; i < o2.finder->attention_count(); ++i) {
+    EXPECT_EQ(o2.finder->attention_u(i), o3.finder->attention_u(i));
+  }
+  // The samples are spread like N(prediction, sigma).
+  double su = 0, suu = 0;
+  for (int i = 0; i < o3.finder->attention_count(); ++i) {
+    su += o3.finder->attention_u(i) - p.u_px;
+    suu += std::pow(o3.finder->attention_u(i) - p.u_px, 2);
+  }
+  const double n = o3.finder->attention_count();
+  EXPECT_NEAR(su / n, 0.0, 1.2);
+  EXPECT_NEAR(std::sqrt(suu / n), 3.0, 1.2);
+}
+
+TEST(DetectTest, BallCutByAStrutGivesTheVisiblePart) {
+  Omni o;
+  Frame f;
+  const float cu = kCu + 150 * std::cos(14.5f / 57.29578f),
+              cv = kCv + 150 * std::sin(14.5f / 57.29578f);
+  f.Disc(cu + 6, cv - 3, 9.0f);
+  // Dark strut wedge through the disc: 4 px wide band along the strut direction.
+  for (int v = 0; v < kFrameHeight; ++v)
+    for (int u = 0; u < kFrameWidth; ++u) {
+      const float ang = std::atan2(v - kCv, u - kCu) * 57.29578f;
+      const float r = std::hypot(u - kCu, v - kCv);
+      if (std::fabs(ang - 14.5f) * r / 57.29578f < 2.0f && r > 60) f.Set(u, v, 20);
+    }
+  BallDetection d;
+  FrontEndStats s;
+  ASSERT_TRUE(o.finder->Find(f.view(), Lut(), nullptr, d, s).ok());
+  ASSERT_TRUE(d.found);
+  EXPECT_GE(s.regions, 1u);  // the part inside the skipped wedge may stay unseeded
+  EXPECT_LT(d.area_px, 0.8f * 3.14159f * 81.0f);  // one visible part, not the whole ball
+  EXPECT_LT(std::hypot(d.u_px - (cu + 6), d.v_px - (cv - 3)), 9.0f);  // on the ball
+}
+
+}  // namespace
+}  // namespace bv
+
+namespace bv {
+namespace {
+
+TEST(DetectTest, PerspBallCutByTheImageBorderGivesTheVisiblePart) {
+  auto scan = std::make_unique<ScanlineTable<kPerspScanPixels>>();
+  ASSERT_TRUE(scan->BuildPersp(ReferencePerspScanConfig(), kFrameWidth, kFrameHeight).ok());
+  auto finder = std::make_unique<BallFinder>();
+  ASSERT_TRUE(finder->Init(*scan, {}).ok());
+  Frame f;
+  f.Disc(635.0f, 200.0f, 20.0f);  // 3/4 of the disc is outside the right border
+  double su = 0, sv = 0;
+  int n = 0;
+  for (int v = 180; v <= 220; ++v)
+    for (int u = 615; u < kFrameWidth; ++u)
+      if (std::hypot(u - 635.0f, v - 200.0f) <= 20.0f) su += u, sv += v, ++n;
+  BallDetection d;
+  FrontEndStats s;
+  ASSERT_TRUE(finder->Find(f.view(), Lut(), nullptr, d, s).ok());
+  ASSERT_TRUE(d.found);
+  EXPECT_NEAR(d.u_px, su / n, 0.5);
+  EXPECT_NEAR(d.v_px, sv / n, 0.2);
+  EXPECT_NEAR(d.area_px, n, 1.0);
+}
+
+}  // namespace
+}  // namespace bv
