@@ -39,10 +39,18 @@ struct OmniCalibration {
   float viewpoint_z_m = 0;  // f_O, mirror viewpoint height (rig constant)
   // Image direction of sector s covers angle [s*8°, (s+1)*8°) measured in the image; the
   // convention between image angle and robot bearing is documented in calibration.cpp.
-  float edge_ground_m[kEdges] = {};                // ground distances of the support vectors
-  float support_px[kDirections][kEdges] = {};      // image radius of each support vector
-  uint8_t sector_flags[kDirections] = {};          // bit 0: interpolated (occluded sector)
+  float edge_ground_m[kEdges] = {};            // ground distances of the support vectors
+  float support_px[kDirections][kEdges] = {};  // image radius of each support vector
+  uint8_t sector_flags[kDirections] = {};      // bit 0: interpolated (occluded sector)
+  // Image angle phi = atan2(v - center_v, u - center_u) (v down) relates to the robot azimuth
+  // theta (CCW from +x) by phi = image_angle_sign * theta + image_angle_offset_rad (found by the
+  // calibration from the known carpet bearing; the reference rig's image is mirror-reversed).
+  int8_t image_angle_sign = 1;  // +1 or -1
+  float image_angle_offset_rad = 0;
 };
+
+/// Sector flag bits.
+inline constexpr uint8_t kOmniSectorInterpolated = 1u << 0;
 
 struct RigCalibration {
   uint32_t calibration_id = 0;  // changes with every calibration written; reported in status

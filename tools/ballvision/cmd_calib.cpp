@@ -1,12 +1,157 @@
+// `ballvision calib to-blob IN OUT | to-json IN OUT | show IN`: converts the robot's calibration
+// between JSON (people) and the device blob, both ways, and prints it.
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <string>
+#include <vector>
 
+#include "tools/ballvision/calib_io.h"
 #include "tools/ballvision/commands.h"
 
 namespace bv::cli {
+namespace {
 
-int CmdCalib(int, char** argv) {
-  std::fprintf(stderr, "ballvision %s: not implemented yet\n", argv[0]);
-  return 1;
+void Usage() {
+  std::fprintf(stderr,
+               "usage: ballvision calib to-blob CALIB(.json|.bin) OUT.bin\n"
+               "       ballvision calib to-json CALIB(.json|.bin) OUT.json\n"
+               "       ballvision calib show CALIB(.json|.bin)\n"
+               "       ballvision calib set CALIB.json [--lut-id N] [--ball-radius M]\n");
+}
+
+void Show(const RigCalibration& c) {
+  std::printf("calibration_id 0x%08x  lut_id 0x%08x  ball_radius_m %.4f\n", c.calibration_id,
+              c.lut_id, c.ball_radius_m);
+  const PerspCalibration& p = c.persp;
+  if (p.valid) {
+    std::printf(
+        "persp: %dx%d fx %.3f fy %.3f cx %.3f cy %.3f skew %.4f k1 %.5f k2 %.5f "
+        "rms %.4f px\n",
+        p.width_px, p.height_px, p.fx, p.fy, p.cx, p.cy, p.skew, p.k1, p.k2, p.rms_px);
+    const Eigen::Vector3f axis = p.R_robot_cam.col(2);
+    std::printf("  camera at (%.4f, %.4f, %.4f) m, optical axis (%.4f, %.4f, %.4f)\n",
+                p.t_robot_cam.x(), p.t_robot_cam.y(), p.t_robot_cam.z(), axis.x(), axis.y(),
+                axis.z());
+  } else {
+    std::printf("persp: not calibrated\n");
+  }
+  const OmniCalibration& o = c.omni;
+  if (o.valid) {
+    int interpolated = 0;
+    for (uint8_t f : o.sector_flags) interpolated += (f & kOmniSectorInterpolated) ? 1 : 0;
+    std::printf(
+        "omni: centre (%.2f, %.2f) px, viewpoint z %.4f m, angle sign %+d offset %.2f "
+        "deg, %d/%d sectors interpolated\n",
+        o.center_u, o.center_v, o.viewpoint_z_m, o.image_angle_sign,
+        o.image_angle_offset_rad * 180.0 / M_PI, interpolated, OmniCalibration::kDirections);
+    std::printf("  edges_m:");
+    for (float e : o.edge_ground_m) std::printf(" %.2f", e);
+    std::printf("\n  support_px min/max over sectors per edge:");
+    for (int k = 0; k < OmniCalibration::kEdges; ++k) {
+      float lo = 1e9f, hi = -1e9f;
+      for (const auto& row : o.support_px) {
+        lo = std::min(lo, row[k]);
+        hi = std::max(hi, row[k]);
+      }
+      std::printf(" %.1f-%.1f", lo, hi);
+    }
+    std::printf("\n");
+  } else {
+    std::printf("omni: not calibrated\n");
+  }
+}
+
+}  // namespace
+
+int CmdCalib(int argc, char** argv) {
+  if (argc < 3) {
+    Usage();
+    return 2;
+  }
+  const std::string sub = argv[1];
+  RigCalibration cal;
+  std::string error;
+  if (sub == "show" && argc == 3) {
+    if (!LoadCalibrationFile(argv[2], cal, error)) {
+      std::fprintf(stderr, "calib show: %s\n", error.c_str());
+      return 1;
+    }
+    Show(cal);
+    return 0;
+  }
+  if ((sub == "to-blob" || sub == "to-json") && argc == 4) {
+    if (!LoadCalibrationFile(argv[2], cal, error)) {
+      std::fprintf(stderr, "calib %s: %s\n", sub.c_str(), error.c_str());
+      return 1;
+    }
+    if (sub == "to-blob") {
+      std::vector<uint8_t> blob;
+      if (!CalibrationToBlob(cal, blob, error) || !WriteFileBytes(argv[3], blob, error)) {
+        std::fprintf(stderr, "calib to-blob: %s\n", error.c_str());
+        return 1;
+      }
+      std::printf("wrote %s (%zu bytes, calibration_id 0x%08x)\n", argv[3], blob.size(),
+                  cal.calibration_id);
+    } else {
+      if (!SaveCalibrationJson(argv[3], cal, error)) {
+        std::fprintf(stderr, "calib to-json: %s\n", error.c_str());
+        return 1;
+      }
+      std::printf("wrote %s\n", argv[3]);
+    }
+    return 0;
+  }
+  if (sub == "set" && argc >= 5) {
+    // Rig constants outside the camera sections; the file is validated before it is written.
+    std::vector<uint8_t> bytes;
+    if (!ReadFileBytes(argv[2], bytes, error)) {
+      std::fprintf(stderr, "calib set: %s\n", error.c_str());
+      return 1;
+    }
+    nlohmann::json j = nlohmann::json::parse(bytes.begin(), bytes.end(), nullptr, false);
+    if (j.is_discarded() || !j.is_object()) {
+      std::fprintf(stderr, "calib set: %s is not a JSON calibration\n", argv[2]);
+      return 1;
+    }
+    for (int i = 3; i + 1 < argc; i += 2) {
+      const std::string key = argv[i];
+      char* end = nullptr;
+      if (key == "--lut-id") {
+        const unsigned long v = std::strtoul(argv[i + 1], &end, 0);
+        if (*end != '\0' || v > 0xFFFFFFFFul) {
+          std::fprintf(stderr, "calib set: --lut-id wants a 32-bit number\n");
+          return 2;
+        }
+        j["lut_id"] = static_cast<uint32_t>(v);
+      } else if (key == "--ball-radius") {
+        const double v = std::strtod(argv[i + 1], &end);
+        if (*end != '\0') {
+          std::fprintf(stderr, "calib set: --ball-radius wants metres\n");
+          return 2;
+        }
+        j["ball_radius_m"] = v;
+      } else {
+        Usage();
+        return 2;
+      }
+    }
+    if (!CalibrationFromJson(j, cal, error)) {
+      std::fprintf(stderr, "calib set: not written: %s\n", error.c_str());
+      return 1;
+    }
+    cal.calibration_id = ComputeCalibrationId(cal);
+    j["calibration_id"] = cal.calibration_id;
+    const std::string text = j.dump(1) + "\n";
+    if (!WriteFileBytes(argv[2], std::vector<uint8_t>(text.begin(), text.end()), error)) {
+      std::fprintf(stderr, "calib set: %s\n", error.c_str());
+      return 1;
+    }
+    Show(cal);
+    return 0;
+  }
+  Usage();
+  return 2;
 }
 
 }  // namespace bv::cli

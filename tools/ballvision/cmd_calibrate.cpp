@@ -1,12 +1,400 @@
+// `ballvision calibrate persp|omni ...` (forms in DESIGN.md §4). Each sub-command creates the
+// calibration file or replaces only its own section.
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <vector>
 
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "hal/host/sequence.h"
+#include "tools/ballvision/calib_io.h"
+#include "tools/ballvision/calib_omni.h"
+#include "tools/ballvision/calib_zhang.h"
 #include "tools/ballvision/commands.h"
 
 namespace bv::cli {
+namespace {
 
-int CmdCalibrate(int, char** argv) {
-  std::fprintf(stderr, "ballvision %s: not implemented yet\n", argv[0]);
-  return 1;
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+void PerspUsage() {
+  std::fprintf(stderr,
+               "usage: ballvision calibrate persp (--images DIR | --corners corners.csv)\n"
+               "         [--board 9x6] [--square 0.07] [--skew] [--poses POSES.json]\n"
+               "         [--size 640x480] --out CALIB.json\n"
+               "  DIR: a folder of images (--prefix P: only names starting with P), or a\n"
+               "       sequence folder with frames.csv (persp_file column)\n"
+               "  corners.csv: image,corner,X,Y,u,v,in_image (board-plane X, Y)\n");
+}
+
+std::vector<std::string> SplitCsv(std::string line) {
+  while (!line.empty() && (line.back() == '\r' || line.back() == '\n')) line.pop_back();
+  std::vector<std::string> out;
+  std::stringstream ss(line);
+  std::string cell;
+  while (std::getline(ss, cell, ',')) out.push_back(cell);
+  if (!line.empty() && line.back() == ',') out.emplace_back();
+  return out;
+}
+
+bool ParseDouble(const std::string& s, double& v) {
+  char* end = nullptr;
+  v = std::strtod(s.c_str(), &end);
+  return end != s.c_str() && *end == '\0' && std::isfinite(v);
+}
+
+bool LoadCornersCsv(const std::string& path, std::vector<ZhangView>& views, std::string& error) {
+  std::ifstream f(path);
+  if (!f) {
+    error = "cannot open " + path;
+    return false;
+  }
+  std::string line;
+  std::getline(f, line);
+  const auto header = SplitCsv(line);
+  std::map<std::string, int> col;
+  for (size_t i = 0; i < header.size(); ++i) col[header[i]] = static_cast<int>(i);
+  for (const char* need : {"image", "X", "Y", "u", "v"}) {
+    if (!col.count(need)) {
+      error = path + ": column '" + need + "' missing";
+      return false;
+    }
+  }
+  std::map<std::string, size_t> index;
+  int line_no = 1;
+  while (std::getline(f, line)) {
+    ++line_no;
+    if (line.empty()) continue;
+    const auto c = SplitCsv(line);
+    if (c.size() < header.size()) {
+      error = path + ":" + std::to_string(line_no) + ": too few columns";
+      return false;
+    }
+    if (col.count("in_image") && c[col["in_image"]] == "0") continue;
+    double X = 0, Y = 0, u = 0, v = 0;
+    if (!ParseDouble(c[col["X"]], X) || !ParseDouble(c[col["Y"]], Y) ||
+        !ParseDouble(c[col["u"]], u) || !ParseDouble(c[col["v"]], v)) {
+      error = path + ":" + std::to_string(line_no) + ": not a finite number";
+      return false;
+    }
+    const std::string& name = c[col["image"]];
+    if (!index.count(name)) {
+      index[name] = views.size();
+      views.push_back(ZhangView{name, {}, {}});
+    }
+    views[index[name]].board.emplace_back(X, Y);
+    views[index[name]].image.emplace_back(u, v);
+  }
+  return true;
+}
+
+// Corner order: row-major, i fastest; board +Z towards the camera (image cross product of the
+// i and j directions negative, v down) and the square between corners (0,0) and (1,1) light.
+void CanonicalOrder(const cv::Mat& gray, int nx, int ny, std::vector<cv::Point2f>& c) {
+  auto at = [&](int i, int j) { return c[static_cast<size_t>(j * nx + i)]; };
+  const cv::Point2f a = at(1, 0) - at(0, 0), b = at(0, 1) - at(0, 0);
+  std::vector<cv::Point2f> o(c.size());
+  if (a.x * b.y - a.y * b.x > 0) {  // mirror i
+    for (int j = 0; j < ny; ++j)
+      for (int i = 0; i < nx; ++i) o[j * nx + i] = at(nx - 1 - i, j);
+    c = o;
+  }
+  auto sample = [&](cv::Point2f p) {
+    const int x = std::clamp(static_cast<int>(std::lround(p.x)), 0, gray.cols - 1);
+    const int y = std::clamp(static_cast<int>(std::lround(p.y)), 0, gray.rows - 1);
+    return static_cast<int>(gray.at<uint8_t>(y, x));
+  };
+  const int s00 = sample((at(0, 0) + at(1, 1)) * 0.5f);
+  const int s10 = sample((at(1, 0) + at(2, 1)) * 0.5f);
+  if (s00 < s10) std::reverse(c.begin(), c.end());  // 180° rotation keeps the handedness
+}
+
+bool DetectImages(const std::string& dir, const std::string& prefix, int nx, int ny, double square,
+                  std::vector<ZhangView>& views, int& width, int& height, std::string& error) {
+  std::vector<std::pair<std::string, std::string>> files;  // name, path
+  if (fs::exists(fs::path(dir) / "frames.csv")) {
+    std::ifstream f(fs::path(dir) / "frames.csv");
+    std::string line;
+    std::getline(f, line);
+    const auto header = SplitCsv(line);
+    int pc = -1;
+    for (size_t i = 0; i < header.size(); ++i)
+      if (header[i] == "persp_file") pc = static_cast<int>(i);
+    if (pc < 0) {
+      error = dir + "/frames.csv has no persp_file column";
+      return false;
+    }
+    while (std::getline(f, line)) {
+      const auto c = SplitCsv(line);
+      if (static_cast<int>(c.size()) > pc && !c[pc].empty()) {
+        files.emplace_back(c[pc], (fs::path(dir) / c[pc]).string());
+      }
+    }
+  } else if (fs::is_directory(dir)) {
+    for (const auto& e : fs::directory_iterator(dir)) {
+      std::string ext = e.path().extension().string();
+      std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
+      const std::string fname = e.path().filename().string();
+      if (fname.rfind(prefix, 0) != 0) continue;
+      if (ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".bmp" || ext == ".yuyv") {
+        files.emplace_back(e.path().filename().string(), e.path().string());
+      }
+    }
+    std::sort(files.begin(), files.end());
+  } else {
+    error = "no such image folder: " + dir;
+    return false;
+  }
+  if (files.empty()) {
+    error = "no images in " + dir;
+    return false;
+  }
+  for (const auto& [name, path] : files) {
+    cv::Mat gray;
+    if (fs::path(path).extension() == ".yuyv") {  // raw camera frame: take the Y channel
+      std::vector<uint8_t> yuyv;
+      int w = 0, h = 0;
+      std::string e;
+      if (host::LoadYuyv(path, yuyv, w, h, e)) {
+        gray.create(h, w, CV_8UC1);
+        for (int i = 0; i < w * h; ++i) gray.data[i] = yuyv[2 * static_cast<size_t>(i)];
+      }
+    } else {
+      gray = cv::imread(path, cv::IMREAD_GRAYSCALE);
+    }
+    if (gray.empty()) {
+      std::fprintf(stderr, "  %s: cannot read, skipped\n", name.c_str());
+      continue;
+    }
+    width = gray.cols;
+    height = gray.rows;
+    std::vector<cv::Point2f> corners;
+    bool found =
+        cv::findChessboardCorners(gray, cv::Size(nx, ny), corners,
+                                  cv::CALIB_CB_ADAPTIVE_THRESH | cv::CALIB_CB_NORMALIZE_IMAGE);
+    if (!found) {
+      found = cv::findChessboardCornersSB(gray, cv::Size(nx, ny), corners);
+      if (found) std::fprintf(stderr, "  %s: found by the sector-based detector\n", name.c_str());
+    }
+    if (!found || static_cast<int>(corners.size()) != nx * ny) {
+      std::fprintf(stderr, "  %s: board not found, skipped\n", name.c_str());
+      continue;
+    }
+    cv::cornerSubPix(gray, corners, cv::Size(5, 5), cv::Size(-1, -1),
+                     cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 30, 0.1));
+    CanonicalOrder(gray, nx, ny, corners);
+    ZhangView v{name, {}, {}};
+    for (int j = 0; j < ny; ++j) {
+      for (int i = 0; i < nx; ++i) {
+        v.board.emplace_back(i * square, j * square);
+        const cv::Point2f& p = corners[static_cast<size_t>(j * nx + i)];
+        v.image.emplace_back(p.x, p.y);
+      }
+    }
+    views.push_back(std::move(v));
+  }
+  return true;
+}
+
+bool LoadPoses(const std::string& path, const std::vector<ZhangView>& views,
+               std::vector<BoardPose>& poses, std::string& error) {
+  std::ifstream f(path);
+  if (!f) {
+    error = "cannot open " + path;
+    return false;
+  }
+  std::stringstream ss;
+  ss << f.rdbuf();
+  const json j = json::parse(ss.str(), nullptr, false);
+  if (j.is_discarded() || !j.contains("poses") || !j["poses"].is_array()) {
+    error = path + ": expected {\"poses\": [{\"image\", \"R\", \"t\"}]}";
+    return false;
+  }
+  for (const auto& p : j["poses"]) {
+    if (!p.contains("image") || !p.contains("R") || !p.contains("t")) {
+      error = path + ": a pose lacks image, R or t";
+      return false;
+    }
+    const std::string name = p["image"].get<std::string>();
+    int view = -1;
+    for (size_t i = 0; i < views.size(); ++i) {
+      if (views[i].name == name ||
+          fs::path(views[i].name).filename() == fs::path(name).filename()) {
+        view = static_cast<int>(i);
+      }
+    }
+    if (view < 0) continue;  // that image was not usable
+    BoardPose bp;
+    bp.view = view;
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) bp.R(r, c) = p["R"][r][c].get<double>();
+      bp.t[r] = p["t"][r].get<double>();
+    }
+    if (!bp.R.allFinite() || !bp.t.allFinite() ||
+        (bp.R.transpose() * bp.R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() > 1e-4) {
+      error = path + ": pose of " + name + " is not a finite rotation";
+      return false;
+    }
+    poses.push_back(bp);
+  }
+  return true;
+}
+
+int CalibratePersp(int argc, char** argv) {
+  std::string images, corners, poses_path, out, prefix;
+  int nx = 9, ny = 6, width = 640, height = 480;
+  double square = 0.07;
+  ZhangOptions opt;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto next = [&]() -> const char* { return i + 1 < argc ? argv[++i] : nullptr; };
+    const char* v = nullptr;
+    if (a == "--skew") {
+      opt.skew = true;
+    } else if (a == "--help" || a == "-h") {
+      PerspUsage();
+      return 0;
+    } else if ((v = next()) == nullptr) {
+      PerspUsage();
+      return 2;
+    } else if (a == "--images") {
+      images = v;
+    } else if (a == "--prefix") {
+      prefix = v;
+    } else if (a == "--corners") {
+      corners = v;
+    } else if (a == "--poses") {
+      poses_path = v;
+    } else if (a == "--out") {
+      out = v;
+    } else if (a == "--square") {
+      square = std::atof(v);
+    } else if (a == "--board") {
+      if (std::sscanf(v, "%dx%d", &nx, &ny) != 2 || nx < 2 || ny < 2) {
+        std::fprintf(stderr, "calibrate persp: --board wants NXxNY inner corners, e.g. 9x6\n");
+        return 2;
+      }
+    } else if (a == "--size") {
+      if (std::sscanf(v, "%dx%d", &width, &height) != 2) {
+        PerspUsage();
+        return 2;
+      }
+    } else {
+      std::fprintf(stderr, "calibrate persp: unknown option %s\n", a.c_str());
+      PerspUsage();
+      return 2;
+    }
+  }
+  if (images.empty() == corners.empty() || out.empty() || !(square > 0)) {
+    PerspUsage();
+    return 2;
+  }
+  std::vector<ZhangView> views;
+  std::string error;
+  if (!corners.empty()
+          ? !LoadCornersCsv(corners, views, error)
+          : !DetectImages(images, prefix, nx, ny, square, views, width, height, error)) {
+    std::fprintf(stderr, "calibrate persp: %s; no calibration written\n", error.c_str());
+    return 1;
+  }
+  for (const auto& v : views) {
+    for (size_t i = 0; i < v.image.size(); ++i) {
+      const Eigen::Vector2d& q = v.image[i];
+      if (!(q.x() >= -0.5 && q.x() <= width - 0.5 && q.y() >= -0.5 && q.y() <= height - 0.5)) {
+        std::fprintf(stderr,
+                     "calibrate persp: %s corner %zu at (%.2f, %.2f) is outside the %dx%d "
+                     "image; no calibration written\n",
+                     v.name.c_str(), i, q.x(), q.y(), width, height);
+        return 1;
+      }
+    }
+  }
+  ZhangResult r;
+  if (!ZhangCalibrate(views, opt, r, error)) {
+    std::fprintf(stderr, "calibrate persp: %s; no calibration written\n", error.c_str());
+    return 1;
+  }
+  std::printf(
+      "Zhang calibration, %zu views%s (closed form: fx %.2f fy %.2f cx %.2f cy %.2f "
+      "skew %.4f; LM %d iterations)\n",
+      views.size(), opt.skew ? ", with skew" : "", r.init_fx, r.init_fy, r.init_cx, r.init_cy,
+      r.init_skew, r.iterations);
+  json per_image = json::object();
+  for (size_t i = 0; i < views.size(); ++i) {
+    std::printf("  %-28s %3zu corners  rms %.4f px\n", views[i].name.c_str(), views[i].image.size(),
+                r.rms_per_view_px[i]);
+    per_image[views[i].name] = r.rms_per_view_px[i];
+  }
+  std::printf("fx %.4f fy %.4f cx %.4f cy %.4f skew %.5f k1 %.6f k2 %.6f\n", r.fx, r.fy, r.cx, r.cy,
+              r.skew, r.k1, r.k2);
+  std::printf("overall reprojection rms %.4f px\n", r.rms_px);
+
+  PerspCalibration p;
+  p.valid = true;
+  p.width_px = width;
+  p.height_px = height;
+  p.fx = static_cast<float>(r.fx);
+  p.fy = static_cast<float>(r.fy);
+  p.cx = static_cast<float>(r.cx);
+  p.cy = static_cast<float>(r.cy);
+  p.skew = static_cast<float>(r.skew);
+  p.k1 = static_cast<float>(r.k1);
+  p.k2 = static_cast<float>(r.k2);
+  p.rms_px = static_cast<float>(r.rms_px);
+  json extra;
+  if (!poses_path.empty()) {
+    std::vector<BoardPose> poses;
+    Eigen::Matrix3d R;
+    Eigen::Vector3d t;
+    double pose_rms = 0;
+    if (!LoadPoses(poses_path, views, poses, error) ||
+        !EstimateRigPose(views, r, poses, R, t, pose_rms, error)) {
+      std::fprintf(stderr, "calibrate persp: %s; no calibration written\n", error.c_str());
+      return 1;
+    }
+    p.R_robot_cam = R.cast<float>();
+    p.t_robot_cam = t.cast<float>();
+    const Eigen::Vector3d axis = R.col(2);
+    std::printf(
+        "camera pose from %zu board poses: position (%.4f, %.4f, %.4f) m, optical axis "
+        "(%.4f, %.4f, %.4f), pitch %.3f deg, rms %.4f px\n",
+        poses.size(), t.x(), t.y(), t.z(), axis.x(), axis.y(), axis.z(),
+        std::asin(std::clamp(axis.z(), -1.0, 1.0)) * 180 / M_PI, pose_rms);
+    extra["pose_views"] = static_cast<int>(poses.size());
+    extra["pose_rms_px"] = pose_rms;
+  } else {
+    std::printf("no --poses: intrinsics only (camera pose left at identity)\n");
+  }
+  json section = PerspToJson(p);
+  section["model"] = opt.skew ? "zhang_k1k2_skew" : "zhang_k1k2";
+  section["views"] = static_cast<int>(views.size());
+  section["per_image_rms_px"] = per_image;
+  for (auto& [k, v] : extra.items()) section[k] = v;
+  if (!UpdateCalibrationSection(out, "persp", section, error)) {
+    std::fprintf(stderr, "calibrate persp: %s\n", error.c_str());
+    return 1;
+  }
+  std::printf("wrote persp section of %s\n", out.c_str());
+  return 0;
+}
+
+}  // namespace
+
+int CmdCalibrate(int argc, char** argv) {
+  if (argc >= 2 && !std::strcmp(argv[1], "persp")) return CalibratePersp(argc - 1, argv + 1);
+  if (argc >= 2 && !std::strcmp(argv[1], "omni")) return CalibrateOmni(argc - 1, argv + 1);
+  std::fprintf(stderr, "usage: ballvision calibrate persp|omni ... (--help for options)\n");
+  return 2;
 }
 
 }  // namespace bv::cli

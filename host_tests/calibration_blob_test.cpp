@@ -1,0 +1,221 @@
+// Calibration blob (core) and the JSON file + `ballvision calib` conversions (tools).
+#include <unistd.h>
+
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "core/calibration/calibration.h"
+#include "core/common/blob.h"
+#include "core/common/crc32.h"
+#include "tools/ballvision/calib_io.h"
+#include "tools/ballvision/commands.h"
+
+namespace bv {
+namespace {
+
+namespace fs = std::filesystem;
+
+RigCalibration Example() {
+  RigCalibration c;
+  c.calibration_id = 0x12345678u;
+  c.lut_id = 0xCAFEF00Du;
+  c.persp.valid = true;
+  c.persp.fx = 377.6f;
+  c.persp.fy = 377.7f;
+  c.persp.cx = 318.2f;
+  c.persp.cy = 242.6f;
+  c.persp.k1 = -0.28f;
+  c.persp.k2 = 0.09f;
+  c.persp.rms_px = 0.1f;
+  c.persp.t_robot_cam = Eigen::Vector3f(0, 0.15f, 0.45f);
+  c.persp.R_robot_cam << 1, 0, 0, 0, 0, 1, 0, -1, 0;
+  c.omni.valid = true;
+  c.omni.center_u = 314.1f;
+  c.omni.center_v = 245.1f;
+  c.omni.viewpoint_z_m = 0.776f;
+  c.omni.image_angle_sign = 1;
+  c.omni.image_angle_offset_rad = -3.1f;
+  for (int k = 0; k < OmniCalibration::kEdges; ++k) c.omni.edge_ground_m[k] = 0.8f + 0.5f * k;
+  for (int s = 0; s < OmniCalibration::kDirections; ++s) {
+    for (int k = 0; k < OmniCalibration::kEdges; ++k) {
+      c.omni.support_px[s][k] = 80.0f + 9.0f * k + 0.1f * s;
+    }
+  }
+  c.omni.sector_flags[1] = kOmniSectorInterpolated;
+  return c;
+}
+
+std::vector<uint8_t> Serialize(const RigCalibration& c) {
+  std::vector<uint8_t> b(kCalibrationBlobMaxBytes);
+  const Result<size_t> n = SerializeCalibration(c, b);
+  EXPECT_TRUE(n.ok()) << n.status().message();
+  b.resize(n.ok() ? *n : 0);
+  return b;
+}
+
+bool Equal(const RigCalibration& a, const RigCalibration& b) {
+  std::vector<uint8_t> x = Serialize(a), y = Serialize(b);
+  return x == y;
+}
+
+TEST(CalibrationBlob, RoundTrip) {
+  const RigCalibration c = Example();
+  const std::vector<uint8_t> b = Serialize(c);
+  ASSERT_LE(b.size(), kCalibrationBlobMaxBytes);
+  RigCalibration back;
+  ASSERT_TRUE(ParseCalibration(b, back).ok());
+  EXPECT_EQ(back.calibration_id, c.calibration_id);
+  EXPECT_EQ(back.lut_id, c.lut_id);
+  EXPECT_EQ(back.persp.fx, c.persp.fx);
+  EXPECT_EQ(back.persp.R_robot_cam, c.persp.R_robot_cam);
+  EXPECT_EQ(back.omni.support_px[44][11], c.omni.support_px[44][11]);
+  EXPECT_EQ(back.omni.sector_flags[1], kOmniSectorInterpolated);
+  EXPECT_EQ(back.omni.image_angle_sign, 1);
+  EXPECT_TRUE(Equal(back, c));
+  // A standard BVB1 blob of kind calibration.
+  EXPECT_TRUE(ReadBlob(b, BlobKind::kCalibration, kCalibrationBlobVersion).ok());
+}
+
+TEST(CalibrationBlob, EveryCorruptionIsRejectedAndOutUntouched) {
+  const std::vector<uint8_t> good = Serialize(Example());
+  RigCalibration sentinel;
+  sentinel.calibration_id = 77;
+  for (size_t i = 0; i < good.size(); ++i) {
+    std::vector<uint8_t> bad = good;
+    bad[i] ^= 0x10;
+    RigCalibration out = sentinel;
+    EXPECT_FALSE(ParseCalibration(bad, out).ok()) << "byte " << i;
+    EXPECT_TRUE(Equal(out, sentinel)) << "byte " << i;
+  }
+  for (size_t n = 0; n < good.size(); n += 13) {  // truncations
+    RigCalibration out = sentinel;
+    EXPECT_FALSE(ParseCalibration(std::span<const uint8_t>(good.data(), n), out).ok());
+    EXPECT_TRUE(Equal(out, sentinel));
+  }
+}
+
+// Re-wraps a modified payload with a correct CRC: the field checks themselves must catch it.
+Status ParseWithPayloadEdit(size_t payload_offset, float value) {
+  std::vector<uint8_t> b = Serialize(Example());
+  std::memcpy(b.data() + kBlobHeaderBytes + payload_offset, &value, 4);
+  const uint32_t crc =
+      Crc32(std::span<const uint8_t>(b.data() + kBlobHeaderBytes, b.size() - kBlobHeaderBytes));
+  std::memcpy(b.data() + 12, &crc, 4);
+  RigCalibration out;
+  return ParseCalibration(b, out);
+}
+
+TEST(CalibrationBlob, FieldsAreValidated) {
+  // payload: id u32, lut u32, ball f32, persp tag u32, valid u8, w u16, h u16, fx f32 ...
+  constexpr size_t kFx = 4 + 4 + 4 + 4 + 1 + 2 + 2;
+  EXPECT_TRUE(ParseWithPayloadEdit(kFx, 400.0f).ok());
+  const Status nan = ParseWithPayloadEdit(kFx, NAN);
+  EXPECT_EQ(nan.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(std::strstr(nan.message(), "fx"), nullptr) << nan.message();
+  EXPECT_EQ(ParseWithPayloadEdit(kFx, -5.0f).code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(ParseWithPayloadEdit(8, 5.0f).code(), StatusCode::kInvalidArgument);  // ball radius
+  // A rotation that is not one.
+  constexpr size_t kR00 = kFx + 8 * 4;
+  EXPECT_EQ(ParseWithPayloadEdit(kR00, 0.5f).code(), StatusCode::kInvalidArgument);
+  // Serialisation refuses what parsing would refuse.
+  RigCalibration c = Example();
+  c.omni.support_px[3][4] = c.omni.support_px[3][3] - 1;  // not increasing
+  std::vector<uint8_t> b(kCalibrationBlobMaxBytes);
+  EXPECT_EQ(SerializeCalibration(c, b).status().code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(SerializeCalibration(Example(), std::span<uint8_t>(b.data(), 100)).status().code(),
+            StatusCode::kResourceExhausted);
+}
+
+std::string TempDir() {
+  const fs::path d = fs::temp_directory_path() / ("bv_calib_blob_" + std::to_string(::getpid()));
+  static const struct Cleanup {
+    fs::path p;
+    ~Cleanup() {
+      std::error_code ec;
+      fs::remove_all(p, ec);
+    }
+  } cleanup{d};
+  fs::create_directories(d);
+  return d.string();
+}
+
+int Calib(std::vector<std::string> args) {
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(a.data());
+  return cli::CmdCalib(static_cast<int>(argv.size()), argv.data());
+}
+
+TEST(CalibrationFile, JsonBlobJsonThroughTheCli) {
+  const std::string dir = TempDir();
+  std::string error;
+  RigCalibration c = Example();
+  ASSERT_TRUE(cli::SaveCalibrationJson(dir + "/a.json", c, error)) << error;
+  ASSERT_EQ(Calib({"calib", "to-blob", dir + "/a.json", dir + "/a.bin"}), 0);
+  ASSERT_EQ(Calib({"calib", "to-json", dir + "/a.bin", dir + "/b.json"}), 0);
+  ASSERT_EQ(Calib({"calib", "show", dir + "/b.json"}), 0);
+  RigCalibration from_blob, from_json;
+  ASSERT_TRUE(cli::LoadCalibrationFile(dir + "/a.bin", from_blob, error)) << error;
+  ASSERT_TRUE(cli::LoadCalibrationFile(dir + "/b.json", from_json, error)) << error;
+  EXPECT_TRUE(Equal(from_blob, c));
+  EXPECT_TRUE(Equal(from_json, c));
+  // A corrupt blob: clear error, no output.
+  std::vector<uint8_t> bytes;
+  ASSERT_TRUE(cli::ReadFileBytes(dir + "/a.bin", bytes, error));
+  bytes[40] ^= 1;
+  ASSERT_TRUE(cli::WriteFileBytes(dir + "/bad.bin", bytes, error));
+  fs::remove(dir + "/c.json");
+  EXPECT_EQ(Calib({"calib", "to-json", dir + "/bad.bin", dir + "/c.json"}), 1);
+  EXPECT_FALSE(fs::exists(dir + "/c.json"));
+  EXPECT_FALSE(cli::LoadCalibrationFile(dir + "/bad.bin", from_blob, error));
+  EXPECT_NE(error.find("CRC"), std::string::npos) << error;
+}
+
+TEST(CalibrationFile, SectionUpdateKeepsTheOtherSection) {
+  const std::string dir = TempDir();
+  const std::string path = dir + "/rig.json";
+  fs::remove(path);
+  std::string error;
+  const RigCalibration c = Example();
+  ASSERT_TRUE(cli::UpdateCalibrationSection(path, "persp", cli::PerspToJson(c.persp), error));
+  RigCalibration r;
+  ASSERT_TRUE(cli::LoadCalibrationFile(path, r, error)) << error;
+  EXPECT_TRUE(r.persp.valid);
+  EXPECT_FALSE(r.omni.valid);
+  const uint32_t id1 = r.calibration_id;
+  ASSERT_TRUE(cli::UpdateCalibrationSection(path, "omni", cli::OmniToJson(c.omni), error));
+  ASSERT_TRUE(cli::LoadCalibrationFile(path, r, error)) << error;
+  EXPECT_TRUE(r.persp.valid);
+  EXPECT_TRUE(r.omni.valid);
+  EXPECT_EQ(r.persp.fx, c.persp.fx);
+  EXPECT_NE(r.calibration_id, id1);  // the id follows the content
+  // An invalid section is refused and the file is unchanged.
+  nlohmann::json bad = cli::PerspToJson(c.persp);
+  bad["fx"] = -1;
+  std::vector<uint8_t> before, after;
+  ASSERT_TRUE(cli::ReadFileBytes(path, before, error));
+  EXPECT_FALSE(cli::UpdateCalibrationSection(path, "persp", bad, error));
+  EXPECT_NE(error.find("fx"), std::string::npos) << error;
+  ASSERT_TRUE(cli::ReadFileBytes(path, after, error));
+  EXPECT_EQ(before, after);
+}
+
+TEST(CalibrationFile, ReferenceRigCalibrationLoads) {
+  RigCalibration r;
+  std::string error;
+  ASSERT_TRUE(cli::LoadCalibrationFile(std::string(BV_TEST_DATA_DIR) + "/reference_rig_calib.json",
+                                       r, error))
+      << error;
+  EXPECT_TRUE(r.persp.valid);
+  EXPECT_TRUE(r.omni.valid);
+  EXPECT_NEAR(r.omni.viewpoint_z_m, 0.776f, 1e-4f);
+  EXPECT_EQ(r.calibration_id, cli::ComputeCalibrationId(r));
+}
+
+}  // namespace
+}  // namespace bv
