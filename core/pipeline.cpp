@@ -1,23 +1,273 @@
 #include "core/pipeline.h"
 
-namespace bv {
+#include <algorithm>
+#include <cmath>
 
-// Placeholder stage order until the front end, calibration and filter stages land: it checks
-// the input and reports "not found". Owner: tracking stage (issue 5) fills in the stages.
+#include "core/color_lut/color_lut.h"
+
+namespace bv {
+namespace {
+
+constexpr float kOmniFitSpanPx = 25.f;  // map span used to extrapolate beyond its end
+constexpr float kRimMarginPx = 3.f;     // a ball this close to the mirror rim may be cut by it
+
+float AngleBetween(const Eigen::Vector3f& a, const Eigen::Vector3f& b) {
+  const float c = a.normalized().dot(b.normalized());
+  return std::acos(std::clamp(c, -1.f, 1.f));
+}
+
+// The omni ray of a pixel. Beyond the calibrated distance map (a raised ball far away: its ray
+// meets the floor further out than the carpet reached) the elevation angle is extrapolated
+// linearly in the image radius from the last 8 px of the map in that direction; the angle
+// (unlike the ground distance) is smooth up to and past the horizon.
+Result<Ray> OmniRay(const OmniCalibration& cal, float u_px, float v_px) {
+  auto ray = OmniPixelToRay(cal, u_px, v_px);
+  if (ray.ok() || ray.status().code() != StatusCode::kOutOfRange) return ray;
+  const float du = u_px - cal.center_u, dv = v_px - cal.center_v;
+  const float r = std::hypot(du, dv);
+  if (!(r > 20.f) || !(cal.viewpoint_z_m > 0.f)) return ray;
+  const float cu = du / r, cv = dv / r;
+  float lo = 0.f, hi = r, x, y;
+  for (int i = 0; i < 24; ++i) {
+    const float mid = 0.5f * (lo + hi);
+    if (OmniPixelToGround(cal, cal.center_u + mid * cu, cal.center_v + mid * cv, x, y).ok()) {
+      lo = mid;
+    } else {
+      hi = mid;
+    }
+  }
+  const float r1 = lo, r2 = lo - kOmniFitSpanPx;
+  float x1, y1, x2, y2;
+  if (r2 <= 0.f ||
+      !OmniPixelToGround(cal, cal.center_u + r1 * cu, cal.center_v + r1 * cv, x1, y1).ok() ||
+      !OmniPixelToGround(cal, cal.center_u + r2 * cu, cal.center_v + r2 * cv, x2, y2).ok()) {
+    return ray;
+  }
+  const float a1 = std::atan2(std::hypot(x1, y1), cal.viewpoint_z_m);
+  const float a2 = std::atan2(std::hypot(x2, y2), cal.viewpoint_z_m);
+  // Unified central-catadioptric model r = k sin(a) / (xi + cos(a)) through both points
+  // (linear in k, xi), inverted at r: r cos(a) - k sin(a) = -r xi.
+  const float s1 = std::sin(a1), s2 = std::sin(a2);
+  const float det = -s1 * r2 + s2 * r1;
+  float a = a1 + (a1 - a2) / (r1 - r2) * (r - r1);  // linear fallback
+  if (std::fabs(det) > 1e-6f) {
+    const float c1 = r1 * std::cos(a1), c2 = r2 * std::cos(a2);
+    const float k = (-c1 * r2 + c2 * r1) / det;
+    const float xi = (s1 * c2 - s2 * c1) / det;
+    const float big_r = std::hypot(r, k);
+    const float arg = -r * xi / big_r;
+    if (k > 0.f && std::fabs(arg) <= 1.f) a = std::acos(arg) - std::atan2(k, r);
+  }
+  if (!(a > 0.f) || a > 1.75f) {  // beyond ~10 degrees above the horizon: not the mirror
+    return Status(StatusCode::kOutOfRange, "omni ray: pixel far beyond the distance map");
+  }
+  const float theta = std::atan2(y1, x1);
+  Ray out;
+  out.origin = Eigen::Vector3f(0.f, 0.f, cal.viewpoint_z_m);
+  out.dir =
+      Eigen::Vector3f(std::sin(a) * std::cos(theta), std::sin(a) * std::sin(theta), -std::cos(a));
+  return out;
+}
+
+}  // namespace
+
 Status Pipeline::Init(const RigCalibration& calibration, const ColorLut& lut,
                       const PipelineConfig& config) {
+  initialised_ = false;
+  if (!calibration.persp.valid && !calibration.omni.valid) {
+    return Status(StatusCode::kFailedPrecondition, "pipeline: calibration valid for no camera");
+  }
   calibration_ = &calibration;
   lut_ = &lut;
   config_ = config;
+  config_.filter.ball_radius_m = calibration.ball_radius_m;
+  if (calibration.omni.valid) {
+    const OmniScanConfig scan =
+        ReferenceOmniScanConfig(calibration.omni.center_u, calibration.omni.center_v);
+    omni_outer_radius_px_ = scan.outer_radius_px;
+    BV_TRY(omni_scan_.BuildOmni(scan, kFrameWidth, kFrameHeight));
+    BV_TRY(omni_finder_.Init(omni_scan_, config_.finder));
+  }
+  if (calibration.persp.valid) {
+    BV_TRY(persp_scan_.BuildPersp(ReferencePerspScanConfig(), calibration.persp.width_px,
+                                  calibration.persp.height_px));
+    BV_TRY(persp_finder_.Init(persp_scan_, config_.finder));
+  }
+  filter_.Configure(config_.filter);
+  stats_ = PipelineStats{};
+  pred_omni_ = pred_persp_ = ImagePrediction{};
   initialised_ = true;
   return Status();
+}
+
+// Projects the filter's position at t into both images (paper IV-A c and the Monte-Carlo
+// attention): the image centre and the apparent ball radius there.
+void Pipeline::Predict(uint64_t t_us) {
+  pred_omni_ = pred_persp_ = ImagePrediction{};
+  Eigen::Vector3f p, v;
+  BallMode mode;
+  BallState probe;
+  filter_.FillState(t_us, 0, probe);
+  if (!probe.found || !filter_.StateAt(t_us, p, v, mode)) return;
+  const float r = calibration_->ball_radius_m;
+  float u, w;
+  if (calibration_->omni.valid && OmniProject(calibration_->omni, p, u, w).ok()) {
+    pred_omni_.valid = true;
+    pred_omni_.u_px = u;
+    pred_omni_.v_px = w;
+    // Radius: project a point one ball radius further out horizontally.
+    const float d = std::hypot(p.x(), p.y());
+    float u2, w2;
+    if (d > 1e-3f) {
+      const Eigen::Vector3f q = p + Eigen::Vector3f(p.x() / d * r, p.y() / d * r, 0.f);
+      if (OmniProject(calibration_->omni, q, u2, w2).ok()) {
+        pred_omni_.radius_px = std::hypot(u2 - u, w2 - w);
+      }
+    }
+  }
+  if (calibration_->persp.valid && PerspProject(calibration_->persp, p, u, w).ok()) {
+    pred_persp_.valid = true;
+    pred_persp_.u_px = u;
+    pred_persp_.v_px = w;
+    const float range = (p - calibration_->persp.t_robot_cam).norm();
+    pred_persp_.radius_px = range > r ? calibration_->persp.fx * r / range : 0.f;
+  }
+}
+
+// Front end of one camera (core/detect), fed with the projected prediction.
+BallDetection Pipeline::Detect(BallFinder& finder, const YuyvImage& img,
+                               const ImagePrediction& pred) {
+  BallDetection det;
+  FrontEndStats fs;
+  Prediction p;
+  p.u_px = pred.u_px;
+  p.v_px = pred.v_px;
+  p.sigma_px = std::max(2.f * pred.radius_px, 6.f);
+  const Status st = finder.Find(img, *lut_, pred.valid ? &p : nullptr, det, fs);
+  stats_.pixels_read += fs.pixels_read;
+  stats_.regions_traced += fs.regions;
+  stats_.overflows += fs.overflows;
+  if (!st.ok()) {
+    ++stats_.frame_errors;
+    det = BallDetection{};
+  }
+  return det;
 }
 
 Status Pipeline::Process(const FrameInput& in, BallState& out) {
   out = BallState{};
   out.t_us = in.t_us;
-  stats_ = PipelineStats{};
+  stats_.pixels_read = stats_.regions_traced = stats_.overflows = 0;
+  stats_.frame_errors = 0;
   if (!initialised_) return Status(StatusCode::kFailedPrecondition, "pipeline: Init() not called");
+  const RigCalibration& cal = *calibration_;
+  const float r = cal.ball_radius_m;
+
+  meas_ = MeasurementInfo{};
+
+  // 1. Prediction for this exposure -> image positions (attention, ball choice).
+  Predict(in.t_us);
+
+  // 2. Front end per camera present.
+  if (in.omni.valid() && cal.omni.valid) out.omni = Detect(omni_finder_, in.omni, pred_omni_);
+  if (in.persp.valid() && cal.persp.valid) out.persp = Detect(persp_finder_, in.persp, pred_persp_);
+
+  // 3. Rays. A ball cut by the mirror rim or the image border has a biased centroid and size:
+  // it is reported (seen) but not used for 3D.
+  Ray ray_o, ray_p;
+  bool have_o = false, have_p = false;
+  const bool omni_cut = out.omni.found && std::hypot(out.omni.u_px - cal.omni.center_u,
+                                                     out.omni.v_px - cal.omni.center_v) +
+                                                  out.omni.radius_px >
+                                              omni_outer_radius_px_ - kRimMarginPx;
+  const float pr = out.persp.radius_px;
+  const bool persp_cut =
+      out.persp.found && (out.persp.u_px - pr < 0.5f || out.persp.v_px - pr < 0.5f ||
+                          out.persp.u_px + pr > static_cast<float>(in.persp.width) - 1.5f ||
+                          out.persp.v_px + pr > static_cast<float>(in.persp.height) - 1.5f);
+  if (out.omni.found) out.flags |= kFlagSeenOmni;
+  if (out.persp.found) out.flags |= kFlagSeenPersp;
+  if (out.omni.found && !omni_cut) {
+    auto ray = OmniRay(cal.omni, out.omni.u_px, out.omni.v_px);
+    if (ray.ok()) {
+      ray_o = *ray;
+      have_o = true;
+    }
+  }
+  if (out.persp.found && !persp_cut) {
+    auto ray = PerspPixelToRay(cal.persp, out.persp.u_px, out.persp.v_px);
+    if (ray.ok()) {
+      ray_p = *ray;
+      have_p = true;
+    }
+  }
+
+  // The filter's view of this instant (used by the fallbacks).
+  Eigen::Vector3f p_pred, v_pred;
+  BallMode mode_pred = BallMode::kNone;
+  BallState probe;
+  filter_.FillState(in.t_us, 0, probe);
+  const bool have_pred = probe.found && filter_.StateAt(in.t_us, p_pred, v_pred, mode_pred);
+
+  // 4. Triangulation, or a one-camera fallback.
+  BallMeasurement m;
+  m.t_us = in.t_us;
+  bool have_m = false;
+  if (have_o && have_p) {
+    auto tri = TriangulateRays(ray_p, ray_o, config_.triangulation);
+    if (tri.ok() && tri->gap_m <= config_.max_ray_gap_m) {
+      m.p_m = tri->point;
+      out.ray_gap_m = tri->gap_m;
+      out.flags |= kFlagTriangulated;
+      have_m = true;
+    } else if (!tri.ok() && tri.status().code() == StatusCode::kOutOfRange) {
+      out.flags |= kFlagRaysParallel;
+    }
+    if (!have_m && tri.ok()) out.ray_gap_m = tri->gap_m;  // reported, but not used
+  }
+  if (have_o) {
+    auto g = IntersectRayWithPlaneZ(ray_o, r);
+    if (g.ok()) {
+      meas_.omni_ground_valid = true;
+      meas_.omni_ground_m = *g;
+    }
+  }
+  if (!have_m && have_o) {
+    // A flying ball seen by the omni camera only: its ray at the predicted height, z unknown.
+    const bool airborne = have_pred && mode_pred != BallMode::kRolling &&
+                          p_pred.z() > r + config_.filter.roll_tolerance_m &&
+                          p_pred.z() < cal.omni.viewpoint_z_m - 0.05f;
+    auto p = IntersectRayWithPlaneZ(ray_o, airborne ? p_pred.z() : r);
+    if (p.ok()) {
+      m.p_m = *p;
+      m.z_valid = !airborne;
+      out.flags |= kFlagOmniGroundFallback;
+      have_m = true;
+    }
+  }
+  if (!have_m && have_p && out.persp.radius_px > 0.5f) {
+    auto rim = PerspPixelToRay(cal.persp, out.persp.u_px + out.persp.radius_px, out.persp.v_px);
+    if (rim.ok()) {
+      auto p = PointFromApparentSize(ray_p, AngleBetween(ray_p.dir, rim->dir), r);
+      if (p.ok()) {
+        m.p_m = *p;
+        out.flags |= kFlagPerspSizeFallback;
+        have_m = true;
+      }
+    }
+  }
+
+  // 5. Filter, then the state at the exposure time and the prediction.
+  if (have_m) {
+    const uint16_t f = filter_.Update(m);
+    meas_.valid = true;
+    meas_.p_m = m.p_m;
+    meas_.z_valid = m.z_valid;
+    meas_.filter_flags = f;
+    if (f) ++stats_.rejected_measurements;
+    out.flags |= f;
+  }
+  filter_.FillState(in.t_us, config_.predict_ahead_us, out);
   return Status();
 }
 

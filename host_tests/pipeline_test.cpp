@@ -1,0 +1,294 @@
+// The full stage order on frames drawn with the project's own camera models (tools demo scene):
+// front end -> rays -> triangulation / fallbacks -> filter -> BallState.
+#include "core/pipeline.h"
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "core/color_lut/color_lut.h"
+#include "hal/host/sequence.h"
+#include "tools/ballvision/calib_io.h"
+#include "tools/ballvision/commands.h"
+#include "tools/ballvision/demo_scene.h"
+#include "tools/ballvision/run_common.h"
+#include "tools/ballvision/run_pipeline.h"
+
+namespace bv {
+namespace {
+
+class PipelineTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    cal_ = cli::MakeDemoCalibration();
+    cli::FillRuleLut(*lut_);
+    ASSERT_TRUE(pipeline_->Init(cal_, *lut_, PipelineConfig{}).ok());
+    renderer_ = std::make_unique<cli::DemoRenderer>(cal_);
+  }
+  BallState Run(const Eigen::Vector3f& ball, uint64_t t_us, bool omni, bool persp) {
+    renderer_->Render(ball, static_cast<uint32_t>(t_us / 1000 + 1), omni_, persp_);
+    FrameInput in;
+    in.t_us = t_us;
+    if (omni) in.omni = MakeYuyvImage(omni_.data(), 640, 480);
+    if (persp) in.persp = MakeYuyvImage(persp_.data(), 640, 480);
+    BallState s;
+    EXPECT_TRUE(pipeline_->Process(in, s).ok());
+    return s;
+  }
+
+  RigCalibration cal_;
+  std::unique_ptr<ColorLut> lut_ = std::make_unique<ColorLut>();
+  std::unique_ptr<Pipeline> pipeline_ = std::make_unique<Pipeline>();
+  std::unique_ptr<cli::DemoRenderer> renderer_;
+  std::vector<uint8_t> omni_, persp_;
+};
+
+TEST_F(PipelineTest, NotInitialisedOrInvalidCalibrationIsAnError) {
+  Pipeline p;
+  BallState s;
+  EXPECT_EQ(p.Process(FrameInput{}, s).code(), StatusCode::kFailedPrecondition);
+  RigCalibration bad;
+  EXPECT_EQ(p.Init(bad, *lut_, PipelineConfig{}).code(), StatusCode::kFailedPrecondition);
+}
+
+TEST_F(PipelineTest, StaticBallIsTriangulatedWithinCentimetres) {
+  for (const Eigen::Vector3f& ball :
+       {Eigen::Vector3f(0.f, 1.5f, 0.11f), Eigen::Vector3f(0.3f, 2.5f, 0.41f),
+        Eigen::Vector3f(-0.4f, 4.f, 0.21f)}) {
+    pipeline_->ResetTrack();
+    const BallState s = Run(ball, 1000000, true, true);
+    ASSERT_TRUE(s.found);
+    EXPECT_TRUE(s.flags & kFlagTriangulated);
+    EXPECT_TRUE(s.flags & kFlagSeenOmni);
+    EXPECT_TRUE(s.flags & kFlagSeenPersp);
+    const MeasurementInfo& m = pipeline_->last_measurement();
+    ASSERT_TRUE(m.valid);
+    EXPECT_LT((m.p_m - ball).norm(), 0.03f + 0.01f * ball.y()) << ball.transpose();
+    EXPECT_GE(s.ray_gap_m, 0.f);
+    EXPECT_LT(s.ray_gap_m, 0.1f);
+  }
+}
+
+TEST_F(PipelineTest, OneCameraFallbacksAreFlagged) {
+  // Omni only, ball on the floor: ground assumption.
+  pipeline_->ResetTrack();
+  const Eigen::Vector3f floor_ball(0.5f, 3.f, 0.11f);
+  BallState s = Run(floor_ball, 1000000, true, false);
+  ASSERT_TRUE(s.found);
+  EXPECT_TRUE(s.flags & kFlagOmniGroundFallback);
+  EXPECT_FALSE(s.flags & kFlagTriangulated);
+  EXPECT_LT(std::hypot(s.x_m - 0.5f, s.y_m - 3.f), 0.08f);
+  EXPECT_FLOAT_EQ(s.z_m, 0.11f);
+  // Perspective only: distance from the apparent size.
+  pipeline_->ResetTrack();
+  const Eigen::Vector3f raised(0.f, 2.f, 0.6f);
+  s = Run(raised, 2000000, false, true);
+  ASSERT_TRUE(s.found);
+  EXPECT_TRUE(s.flags & kFlagPerspSizeFallback);
+  EXPECT_LT((pipeline_->last_measurement().p_m - raised).norm(), 0.15f);
+  // Nothing seen: coasting on the prediction, then lost.
+  s = Run(raised, 2100000, false, false);
+  EXPECT_TRUE(s.found);
+  EXPECT_TRUE(s.flags & kFlagCoasting);
+  s = Run(raised, 3000000, false, false);
+  EXPECT_FALSE(s.found);
+  EXPECT_TRUE(s.flags & kFlagLost);
+}
+
+TEST_F(PipelineTest, LobIsTrackedThroughFlightAndBounces) {
+  std::vector<double> contacts;
+  cli::DemoLob(100.0, 0.7, &contacts);
+  ASSERT_GE(contacts.size(), 2u);
+  int found = 0, frames = 0;
+  bool saw_flying = false, saw_bouncing = false;
+  std::vector<float> errs;
+  for (int k = 0; k < 60; ++k) {
+    const uint64_t t_us = static_cast<uint64_t>(std::llround(k * 1e6 / 30.0));
+    const cli::DemoTruth tr = cli::DemoLob(t_us * 1e-6, 0.7);
+    const BallState s = Run(tr.p, t_us, true, true);
+    ++frames;
+    if (!s.found) continue;
+    ++found;
+    errs.push_back((Eigen::Vector3f(s.x_m, s.y_m, s.z_m) - tr.p).norm());
+    saw_flying |= s.mode == BallMode::kFlying;
+    saw_bouncing |= s.mode == BallMode::kBouncing;
+    ASSERT_TRUE(std::isfinite(s.px_m) && std::isfinite(s.vz_mps));
+    // The prediction's image position (attention) is near the ball actually found.
+    const ImagePrediction& po = pipeline_->omni_prediction();
+    if (k > 5 && po.valid && s.omni.found) {
+      EXPECT_LT(std::hypot(po.u_px - s.omni.u_px, po.v_px - s.omni.v_px), 8.f) << k;
+    }
+    // Before the first contact the next bounce is predicted within 50 ms from frame 8 on.
+    if (k >= 8 && t_us * 1e-6 < contacts[0] - 0.03) {
+      ASSERT_TRUE(s.flags & kFlagHasBounce) << k;
+      EXPECT_NEAR(s.t_bounce_us * 1e-6, contacts[0], 0.05) << k;
+    }
+  }
+  EXPECT_GE(found, frames * 9 / 10);
+  EXPECT_TRUE(saw_flying);
+  EXPECT_TRUE(saw_bouncing);
+  std::sort(errs.begin(), errs.end());
+  EXPECT_LT(errs[errs.size() / 2], 0.05f);
+}
+
+}  // namespace
+}  // namespace bv
+
+// ---- The CLI and the rendered reference rig (skipped without the shared data). ----
+
+namespace bv {
+namespace {
+
+std::string SimDir(const char* scene) { return std::string(BV_SHARED_DATA_DIR) + "/sim/" + scene; }
+const std::string kRefCalib = std::string(BV_TEST_DATA_DIR) + "/reference_rig_calib.json";
+
+bool SimAvailable(const char* scene) {
+  return std::filesystem::exists(SimDir(scene) + "/frames.csv") &&
+         std::filesystem::exists(kRefCalib);
+}
+
+struct SimRun {
+  RigCalibration cal;
+  std::unique_ptr<ColorLut> lut = std::make_unique<ColorLut>();
+  std::unique_ptr<Pipeline> pipeline = std::make_unique<Pipeline>();
+  std::vector<cli::FrameRecord> recs;
+  cli::CsvTable truth;
+};
+
+void RunSim(const char* scene, bool stills, SimRun& r) {
+  std::string err, used;
+  ASSERT_TRUE(cli::LoadCalibrationFile(kRefCalib, r.cal, err)) << err;
+  ASSERT_TRUE(cli::LoadLutOrDefault("", kRefCalib, *r.lut, used, err)) << err;
+  ASSERT_TRUE(r.pipeline->Init(r.cal, *r.lut, PipelineConfig{}).ok());
+  host::Sequence seq;
+  ASSERT_TRUE(host::LoadSequence(SimDir(scene), seq, err)) << err;
+  cli::RunSettings rs;
+  rs.reset_each_frame = stills;
+  ASSERT_TRUE(cli::RunSequence(seq, *r.pipeline, rs, r.recs, err)) << err;
+  ASSERT_TRUE(cli::ReadCsv(SimDir(scene) + "/truth.csv", r.truth, err)) << err;
+  ASSERT_EQ(r.truth.rows.size(), r.recs.size());
+}
+
+TEST(PipelineSim, StaticGridMeetsTheAccuracyGoals) {
+  if (!SimAvailable("static_grid")) {
+    GTEST_SKIP() << "no sim/static_grid or reference calibration";
+  }
+  SimRun r;
+  RunSim("static_grid", true, r);
+  std::map<double, std::vector<double>> near;  // height -> errors at <= 2 m
+  for (size_t i = 0; i < r.recs.size(); ++i) {
+    double x, y, z;
+    ASSERT_TRUE(cli::Field(r.truth.rows[i], "ball_x", x) &&
+                cli::Field(r.truth.rows[i], "ball_y", y) &&
+                cli::Field(r.truth.rows[i], "ball_z", z));
+    const MeasurementInfo& m = r.recs[i].meas;
+    ASSERT_TRUE(m.valid) << "frame " << r.recs[i].index;
+    const double e = (m.p_m - Eigen::Vector3f(x, y, z)).norm();
+    const double d = std::hypot(x, y);
+    if (d <= 2.01) near[z].push_back(e);
+    if (std::fabs(d - 5.0) < 0.01) {
+      EXPECT_LE(e, 0.15) << "5 m, z " << z;
+    }
+  }
+  ASSERT_EQ(near.size(), 3u);
+  for (auto& [z, v] : near) {
+    EXPECT_LE(cli::Median(v), 0.03) << "z " << z;
+  }
+}
+
+TEST(PipelineSim, BounceIsTrackedAndPredicted) {
+  if (!SimAvailable("bounce")) {
+    GTEST_SKIP() << "no sim/bounce or reference calibration";
+  }
+  SimRun r;
+  RunSim("bounce", false, r);
+  std::map<uint64_t, Eigen::Vector3f> truth;
+  for (const auto& row : r.truth.rows) {
+    double t, x, y, z;
+    if (cli::Field(row, "t_us", t) && cli::Field(row, "ball_x", x) &&
+        cli::Field(row, "ball_y", y) && cli::Field(row, "ball_z", z)) {
+      truth[static_cast<uint64_t>(t)] = Eigen::Vector3f(x, y, z);
+    }
+  }
+  std::vector<double> state_err, pred_err;
+  bool bouncing = false;
+  for (const auto& rec : r.recs) {
+    const BallState& s = rec.state;
+    ASSERT_TRUE(s.found);
+    state_err.push_back((Eigen::Vector3f(s.x_m, s.y_m, s.z_m) - truth[s.t_us]).norm());
+    bouncing |= s.mode == BallMode::kBouncing;
+    // t + 200 ms is frame k + 6 (t_us rounded to the microsecond).
+    for (uint64_t dt : {199999u, 200000u, 200001u}) {
+      auto it = truth.find(s.t_us + dt);
+      if (it != truth.end())
+        pred_err.push_back((Eigen::Vector3f(s.px_m, s.py_m, s.pz_m) - it->second).norm());
+    }
+  }
+  EXPECT_TRUE(bouncing);
+  EXPECT_LE(cli::Median(state_err), 0.04);
+  ASSERT_GT(pred_err.size(), 40u);
+  EXPECT_LE(cli::Median(pred_err), 0.05);
+}
+
+TEST(PipelineCli, RunWritesTheDesignColumns) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / "bv_pipeline_test_run";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const RigCalibration cal = cli::MakeDemoCalibration();
+  std::string err;
+  ASSERT_TRUE(cli::SaveCalibrationJson((dir / "calib.json").string(), cal, err)) << err;
+  auto lut = std::make_unique<ColorLut>();
+  cli::FillRuleLut(*lut);
+  std::vector<uint8_t> blob(kColorLutBlobBytes);
+  ASSERT_TRUE(SerializeLut(*lut, blob).ok());
+  ASSERT_TRUE(cli::WriteFileBytes((dir / "ball.lut").string(), blob, err)) << err;
+  const cli::DemoRenderer renderer(cal);
+  std::string frames = "index,t_us,omni_file,persp_file\n";
+  for (int k = 0; k < 8; ++k) {
+    std::vector<uint8_t> o, p;
+    renderer.Render(cli::DemoLob(k / 30.0, 0.7).p, k + 1, o, p);
+    char on[32], pn[32], row[128];
+    std::snprintf(on, sizeof on, "o%d.yuyv", k);
+    std::snprintf(pn, sizeof pn, "p%d.yuyv", k);
+    ASSERT_TRUE(cli::WriteFileBytes((dir / on).string(), o, err));
+    ASSERT_TRUE(cli::WriteFileBytes((dir / pn).string(), p, err));
+    std::snprintf(row, sizeof row, "%d,%lld,%s,%s\n", 10 + k,
+                  static_cast<long long>(std::llround(k * 1e6 / 30)), on, k == 5 ? "" : pn);
+    frames += row;
+  }
+  std::ofstream((dir / "frames.csv").string()) << frames;
+  const std::string seq = dir.string(), calib = (dir / "calib.json").string(),
+                    lut_path = (dir / "ball.lut").string(), out = (dir / "states.csv").string();
+  const char* argv[] = {
+      "run",   seq.c_str(), "--calib",      calib.c_str(), "--lut", lut_path.c_str(),
+      "--out", out.c_str(), "--predict-ms", "200"};
+  ASSERT_EQ(cli::CmdRun(10, const_cast<char**>(argv)), 0);
+  cli::CsvTable t;
+  ASSERT_TRUE(cli::ReadCsv(out, t, err)) << err;
+  const std::vector<std::string> want = {"index",       "t_us",    "found",   "x",       "y",
+                                         "z",           "vx",      "vy",      "vz",      "mode",
+                                         "omni_u",      "omni_v",  "persp_u", "persp_v", "ray_gap",
+                                         "t_bounce_us", "proc_us", "px",      "py",      "pz"};
+  EXPECT_EQ(t.header, want);
+  ASSERT_EQ(t.rows.size(), 8u);
+  EXPECT_EQ(t.rows[0].at("index"), "10");
+  EXPECT_EQ(t.rows[5].at("persp_u"), "");  // no persp frame in row 5
+  for (const auto& row : t.rows) {
+    EXPECT_EQ(row.at("found"), "1");
+  }
+  // Usage errors exit with 2.
+  const char* bad[] = {"run", seq.c_str()};
+  EXPECT_EQ(cli::CmdRun(2, const_cast<char**>(bad)), 2);
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace bv

@@ -1,0 +1,102 @@
+#include "tools/ballvision/run_pipeline.h"
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+
+#include <algorithm>
+
+#include "tools/ballvision/annotate_frontend.h"
+
+namespace bv::cli {
+
+bool AnnotateFrame(const std::string& dir, int64_t index, const FrameInput& in,
+                   const Pipeline& pipeline, const BallState& s, std::string& error) {
+  // The front end's debug picture (scanlines, contours, attention samples, prediction, ball).
+  const YuyvImage* imgs[2] = {&in.omni, &in.persp};
+  const BallDetection* dets[2] = {&s.omni, &s.persp};
+  const ImagePrediction* preds[2] = {&pipeline.omni_prediction(), &pipeline.persp_prediction()};
+  const ScanlineTableBase* scans[2] = {&pipeline.omni_scan(), &pipeline.persp_scan()};
+  const BallFinder* finders[2] = {&pipeline.omni_finder(), &pipeline.persp_finder()};
+  const char* names[2] = {"omni", "persp"};
+  for (int c = 0; c < 2; ++c) {
+    if (!imgs[c]->valid() || !scans[c]->built() || !pipeline.lut()) continue;
+    Prediction p;
+    p.u_px = preds[c]->u_px;
+    p.v_px = preds[c]->v_px;
+    p.sigma_px = std::max(2.f * preds[c]->radius_px, 6.f);
+    char name[64];
+    std::snprintf(name, sizeof name, "/%s_%06lld.png", names[c], static_cast<long long>(index));
+    if (!AnnotateFrontEnd(*imgs[c], *pipeline.lut(), *scans[c], *finders[c],
+                          preds[c]->valid ? &p : nullptr, *dets[c], dir + name, &error)) {
+      return false;
+    }
+  }
+  return true;
+}
+
+bool RunSequence(const host::Sequence& seq, Pipeline& pipeline, const RunSettings& settings,
+                 std::vector<FrameRecord>& records, std::string& error) {
+  records.clear();
+  records.reserve(seq.entries.size());
+  if (!settings.annotate_dir.empty()) {
+    std::error_code ec;
+    std::filesystem::create_directories(settings.annotate_dir, ec);
+  }
+  std::vector<uint8_t> omni, persp;
+  const size_t n = seq.entries.size();
+  for (size_t i = 0; i < n; ++i) {
+    const host::SequenceEntry& e = seq.entries[i];
+    FrameInput in;
+    in.t_us = e.t_us;
+    int w = 0, h = 0;
+    std::string err;
+    if (!e.omni_path.empty()) {
+      if (!host::LoadYuyv(e.omni_path, omni, w, h, err)) {
+        error = err;
+        return false;
+      }
+      in.omni = MakeYuyvImage(omni.data(), w, h);
+    }
+    if (!e.persp_path.empty()) {
+      if (!host::LoadYuyv(e.persp_path, persp, w, h, err)) {
+        error = err;
+        return false;
+      }
+      in.persp = MakeYuyvImage(persp.data(), w, h);
+    }
+    if (settings.reset_each_frame) pipeline.ResetTrack();
+    FrameRecord rec;
+    rec.index = e.index;
+    const auto t0 = std::chrono::steady_clock::now();
+    const Status st = pipeline.Process(in, rec.state);
+    const auto t1 = std::chrono::steady_clock::now();
+    if (!st.ok()) {
+      error = std::string("frame ") + std::to_string(e.index) + ": " + st.message();
+      return false;
+    }
+    rec.state.proc_us = static_cast<uint32_t>(
+        std::chrono::duration_cast<std::chrono::microseconds>(t1 - t0).count());
+    rec.meas = pipeline.last_measurement();
+    uint64_t tc[8];
+    float xs[8], ys[8];
+    const int nc = pipeline.filter().ContactsAfter(e.t_us, tc, xs, ys, 8);
+    if (rec.state.found) rec.contacts_us.assign(tc, tc + nc);
+    if (!settings.annotate_dir.empty() &&
+        !AnnotateFrame(settings.annotate_dir, e.index, in, pipeline, rec.state, error)) {
+      return false;
+    }
+    if (settings.on_frame) settings.on_frame(pipeline, rec);
+    records.push_back(std::move(rec));
+    if (settings.progress && (i + 1 == n || i % 5 == 0)) {
+      const int width = 40;
+      const int done = static_cast<int>((i + 1) * width / n);
+      std::fprintf(stderr, "\r[%.*s%*s] %zu/%zu frames", done,
+                   "########################################", width - done, "", i + 1, n);
+      if (i + 1 == n) std::fprintf(stderr, "\n");
+    }
+  }
+  return true;
+}
+
+}  // namespace bv::cli
