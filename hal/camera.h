@@ -17,6 +17,7 @@ struct Frame {
   uint64_t exposure_us = 0;  // start of exposure, board clock
   uint32_t sequence = 0;     // per-camera frame counter from the capture hardware / file index
   bool present = false;
+  uint32_t stride_bytes = 0;  // bytes per row; 0 = packed (2 * width). See hal/stm32h7/README.md
 };
 
 /// Flags of a pair; a pair may be served with one camera missing so the pipeline can fall back.

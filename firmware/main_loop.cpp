@@ -1,0 +1,322 @@
+#include "firmware/main_loop.h"
+
+#include <cmath>
+#include <cstring>
+#include <new>
+
+#include "core/common/blob.h"
+#include "core/common/crc32.h"
+#include "hal/common/blob_store.h"
+
+extern "C" __attribute__((noinline, used)) void bv_perf_begin() { asm volatile("" ::: "memory"); }
+extern "C" __attribute__((noinline, used)) void bv_perf_end() { asm volatile("" ::: "memory"); }
+extern "C" __attribute__((noinline, used)) void bv_pair_begin() { asm volatile("" ::: "memory"); }
+extern "C" __attribute__((noinline, used)) void bv_pair_end() { asm volatile("" ::: "memory"); }
+
+namespace bv::fw {
+namespace {
+
+using protocol::BlobState;
+
+// A frame the camera layer handed out, as the pipeline's image view; invalid (skipped by the
+// pipeline) when absent or too short for 640x480 at its stride.
+YuyvImage ToImage(const hal::Frame& f) {
+  const size_t stride = f.stride_bytes != 0 ? f.stride_bytes : kFrameWidth * kYuyvBytesPerPixel;
+  if (!f.present || f.data == nullptr || stride < kFrameWidth * kYuyvBytesPerPixel ||
+      f.size_bytes < stride * (kFrameHeight - 1) + kFrameWidth * kYuyvBytesPerPixel) {
+    return YuyvImage{};
+  }
+  return YuyvImage{f.data, kFrameWidth, kFrameHeight, static_cast<int>(stride)};
+}
+
+}  // namespace
+
+MainLoop::MainLoop(hal::Camera& camera, hal::Uart& uart, hal::Clock& clock, hal::Storage& storage,
+                   std::span<uint8_t> blob_scratch, const MainLoopConfig& config,
+                   const uint32_t* camera_bad_input, std::span<uint8_t> upload_buffer)
+    : camera_(camera),
+      uart_(uart),
+      clock_(clock),
+      storage_(storage),
+      blob_scratch_(blob_scratch),
+      config_(config),
+      camera_bad_input_(camera_bad_input),
+      upload_buffer_(upload_buffer.size() >= kUploadBufferBytes ? upload_buffer
+                                                                : std::span<uint8_t>()) {}
+
+BlobState MainLoop::ReadSlotPair(const int (&slots)[2], BlobKind kind, uint16_t max_version,
+                                 std::span<const uint8_t>& blob) {
+  hal::BlobStore store(storage_, slots[0], slots[1], kind, max_version);
+  const Result<size_t> n = store.Load(blob_scratch_);
+  if (n.ok()) {
+    blob = blob_scratch_.first(*n);
+    return BlobState::kOk;
+  }
+  // Nothing valid: tell "never written" (erased) from "written but damaged".
+  for (int slot : slots) {
+    uint8_t head[16];
+    if (!storage_.Read(slot, 0, head).ok()) return BlobState::kCorrupt;
+    for (uint8_t b : head) {
+      if (b != 0xFF) return BlobState::kCorrupt;
+    }
+  }
+  return BlobState::kMissing;
+}
+
+BlobState MainLoop::LoadCalibration() {
+  std::span<const uint8_t> blob;
+  const BlobState state = ReadSlotPair(config_.calibration_slots, BlobKind::kCalibration,
+                                       kCalibrationBlobVersion, blob);
+  if (state != BlobState::kOk) return state;
+  // ParseCalibration checks ranges too; `calibration_` is untouched on failure.
+  if (!ParseCalibration(blob, calibration_).ok()) return BlobState::kCorrupt;
+  status_.calibration_id = calibration_.calibration_id;
+  return BlobState::kOk;
+}
+
+BlobState MainLoop::LoadLut() {
+  std::span<const uint8_t> blob;
+  const BlobState state =
+      ReadSlotPair(config_.lut_slots, BlobKind::kColorLut, kColorLutBlobVersion, blob);
+  if (state != BlobState::kOk) return state;
+  if (!ParseLut(blob, lut_).ok()) return BlobState::kCorrupt;
+  status_.lut_id = lut_.Id();
+  return BlobState::kOk;
+}
+
+Status MainLoop::Init() {
+  status_ = protocol::StatusReport{};
+  const BlobState cal = LoadCalibration();
+  const BlobState lut = LoadLut();
+  status_.calibration_state = static_cast<uint8_t>(cal);
+  status_.lut_state = static_cast<uint8_t>(lut);
+  InitPipeline();
+
+  const Status camera = camera_.Start();
+  if (!camera.ok()) status_.fault_flags |= kFaultCameraStart;
+  SendStatus();
+  return camera;
+}
+
+void MainLoop::InitPipeline() {
+  pipeline_ready_ = status_.calibration_state == static_cast<uint8_t>(BlobState::kOk) &&
+                    status_.lut_state == static_cast<uint8_t>(BlobState::kOk) &&
+                    pipeline_.Init(calibration_, lut_, config_.pipeline).ok();
+  if (pipeline_ready_) {
+    status_.fault_flags &= ~kFaultPipelineNotReady;
+  } else {
+    status_.fault_flags |= kFaultPipelineNotReady;
+  }
+}
+
+size_t MainLoop::Uploads::capacity(protocol::UploadTarget target) const {
+  if (loop_.upload_buffer_.empty()) return 0;
+  return target == protocol::UploadTarget::kCalibration ? kCalibrationBlobMaxBytes
+                                                        : kColorLutBlobBytes;
+}
+
+Status MainLoop::Uploads::Begin(protocol::UploadTarget target, size_t total_len) {
+  if (total_len > capacity(target)) {
+    return Status(StatusCode::kResourceExhausted, "upload: larger than the target allows");
+  }
+  length_ = total_len;
+  return Status();
+}
+
+Status MainLoop::Uploads::Write(protocol::UploadTarget, size_t offset,
+                                std::span<const uint8_t> data) {
+  if (offset > length_ || data.size() > length_ - offset) {
+    return Status(StatusCode::kOutOfRange, "upload: chunk outside the announced length");
+  }
+  std::memcpy(loop_.upload_buffer_.data() + offset, data.data(), data.size());
+  return Status();
+}
+
+void MainLoop::Uploads::Abort(protocol::UploadTarget) { length_ = 0; }
+
+Status MainLoop::Uploads::Commit(protocol::UploadTarget target, uint32_t total_crc32) {
+  MainLoop& m = loop_;
+  const std::span<const uint8_t> blob = m.upload_buffer_.first(length_);
+  const std::span<uint8_t> verify = m.upload_buffer_.subspan(kBlobScratchBytes);
+  length_ = 0;
+  if (Crc32(blob) != total_crc32) return Status(StatusCode::kDataLoss, "upload: CRC mismatch");
+  // Trial parse into the verification half (placement, not heap) before anything is saved.
+  static_assert(sizeof(RigCalibration) <= kBlobScratchBytes &&
+                sizeof(ColorLut) <= kBlobScratchBytes);
+  static_assert(kBlobScratchBytes % alignof(RigCalibration) == 0 &&
+                kBlobScratchBytes % alignof(ColorLut) == 0);
+  const bool calibration = target == protocol::UploadTarget::kCalibration;
+  const Status parsed = calibration ? ParseCalibration(blob, *new (verify.data()) RigCalibration)
+                                    : ParseLut(blob, *new (verify.data()) ColorLut);
+  if (!parsed.ok()) return Status(StatusCode::kInvalidArgument, parsed.message());
+  hal::BlobStore store(m.storage_,
+                       calibration ? m.config_.calibration_slots[0] : m.config_.lut_slots[0],
+                       calibration ? m.config_.calibration_slots[1] : m.config_.lut_slots[1],
+                       calibration ? BlobKind::kCalibration : BlobKind::kColorLut,
+                       calibration ? kCalibrationBlobVersion : kColorLutBlobVersion);
+  BV_TRY(store.Save(blob, verify));
+  // Saved and known to parse: activate.
+  if (calibration) {
+    BV_TRY(ParseCalibration(blob, m.calibration_));
+    m.status_.calibration_id = m.calibration_.calibration_id;
+    m.status_.calibration_state = static_cast<uint8_t>(BlobState::kOk);
+  } else {
+    BV_TRY(ParseLut(blob, m.lut_));
+    m.status_.lut_id = m.lut_.Id();
+    m.status_.lut_state = static_cast<uint8_t>(BlobState::kOk);
+  }
+  m.InitPipeline();
+  return Status();
+}
+
+Status MainLoop::Params::SetParam(uint16_t id, float value) {
+  switch (id) {
+    case kParamFramePeriodUs:
+      if (!(value >= 1000.0f && value <= 1000000.0f)) {
+        return Status(StatusCode::kOutOfRange, "frame period must be 1000..1000000 us");
+      }
+      loop_.config_.frame_period_us = static_cast<uint32_t>(std::lround(value));
+      return Status();
+    case kParamStatusIntervalUs:
+      if (!(value >= 100000.0f && value <= 10000000.0f)) {
+        return Status(StatusCode::kOutOfRange, "status interval must be 0.1..10 s");
+      }
+      loop_.config_.status_interval_us = static_cast<uint32_t>(std::lround(value));
+      return Status();
+    default:
+      return Status(StatusCode::kNotFound, "unknown parameter");
+  }
+}
+
+void MainLoop::PollCommands() {
+  uint8_t bytes[64];
+  const Result<size_t> n = uart_.Read(bytes);
+  if (!n.ok()) return;
+  for (size_t i = 0; i < *n; ++i) {
+    protocol::FrameView frame;
+    if (!rx_.Push(bytes[i], frame)) continue;
+    size_t reply_len = 0;
+    const protocol::CommandResult r = commands_.Handle(frame, seq_, packet_, reply_len);
+    if (reply_len > 0) {
+      ++seq_;
+      Send(std::span<const uint8_t>(packet_, reply_len));
+    }
+    if (r.send_status) SendStatus();
+  }
+}
+
+void MainLoop::Send(std::span<const uint8_t> frame) {
+  if (!uart_.Write(frame).ok()) ++status_.packets_dropped;
+}
+
+void MainLoop::SendStatus() {
+  status_.uptime_us = clock_.NowUs();
+  status_.rx_errors = rx_.stats().errors();
+  status_.command_errors = commands_.errors();
+  last_status_clock_us_ = status_.uptime_us;
+  // Pairs per second of exposure time since the previous status packet.
+  status_.frame_rate_mhz = 0;
+  if (interval_pairs_ >= 2 && interval_last_exposure_us_ > interval_first_exposure_us_) {
+    status_.frame_rate_mhz =
+        static_cast<uint32_t>(uint64_t{interval_pairs_ - 1} * 1000000000ull /
+                              (interval_last_exposure_us_ - interval_first_exposure_us_));
+  }
+  interval_pairs_ = 0;
+  if (camera_bad_input_ != nullptr && *camera_bad_input_ != 0) {
+    status_.fault_flags |= kFaultCameraBadInput;
+  }
+  const Result<size_t> n = protocol::EncodeStatus(status_, seq_++, packet_);
+  if (!n.ok()) {
+    ++status_.pipeline_errors;  // cannot happen with a correctly sized buffer; counted anyway
+    return;
+  }
+  const uint32_t dropped_before = status_.packets_dropped;
+  Send(std::span<const uint8_t>(packet_, *n));
+  if (status_.packets_dropped == dropped_before) ++status_packets_sent_;
+}
+
+void MainLoop::CountPairFlags(const hal::FramePair& pair) {
+  status_.frames_dropped += pair.dropped;
+  if (pair.flags & hal::kPairOmniMissing) ++status_.pairs_omni_missing;
+  if (pair.flags & hal::kPairPerspMissing) ++status_.pairs_persp_missing;
+  if (pair.flags & hal::kPairOutOfSync) ++status_.pairs_out_of_sync;
+  if (pair.flags & hal::kPairOutOfOrder) ++status_.pairs_out_of_order;
+  if (pair.flags & hal::kPairTorn) ++status_.pairs_torn;
+}
+
+void MainLoop::MaybeSendStatus(uint64_t exposure_us) {
+  if (interval_pairs_ == 0) interval_first_exposure_us_ = exposure_us;
+  ++interval_pairs_;
+  interval_last_exposure_us_ = exposure_us;
+  if (!have_status_exposure_) {
+    have_status_exposure_ = true;
+    last_status_exposure_us_ = exposure_us;
+  }
+  // Exactly one status per status_interval_us of exposure time (an out-of-order pair with an
+  // older timestamp never triggers one; the clock heartbeat in Poll() covers stalls).
+  if (exposure_us >= last_status_exposure_us_ + config_.status_interval_us) {
+    last_status_exposure_us_ += config_.status_interval_us;
+    if (exposure_us >= last_status_exposure_us_ + config_.status_interval_us) {
+      last_status_exposure_us_ = exposure_us;  // a gap in the stream: restart the cadence
+    }
+    SendStatus();
+  }
+}
+
+bool MainLoop::Poll() {
+  PollCommands();
+  hal::FramePair pair;
+  if (!camera_.AcquirePair(pair).ok()) {
+    // Idle: keep the status heartbeat going on clock time (live camera stalled or absent).
+    const uint64_t now_us = clock_.NowUs();
+    if (now_us - last_status_clock_us_ >= config_.status_interval_us) SendStatus();
+    return false;
+  }
+  bv_pair_begin();
+  const uint64_t start_us = clock_.NowUs();
+  CountPairFlags(pair);
+
+  FrameInput in;
+  in.omni = ToImage(pair.omni);
+  in.persp = ToImage(pair.persp);
+  in.t_us = pair.exposure_us;
+
+  BallState state;
+  if (pipeline_ready_) {
+    bv_perf_begin();
+    const Status st = pipeline_.Process(in, state);
+    bv_perf_end();
+    if (!st.ok()) ++status_.pipeline_errors;
+  } else {
+    state = BallState{};
+    state.t_us = pair.exposure_us;
+  }
+  const uint64_t proc_us = clock_.NowUs() - start_us;
+  state.proc_us = static_cast<uint32_t>(proc_us > UINT32_MAX ? UINT32_MAX : proc_us);
+
+  const Result<size_t> n = protocol::EncodeBallState(state, seq_++, packet_);
+  if (n.ok()) {
+    const uint32_t dropped_before = status_.packets_dropped;
+    Send(std::span<const uint8_t>(packet_, *n));
+    if (status_.packets_dropped == dropped_before) ++ball_packets_sent_;
+  } else {
+    ++status_.pipeline_errors;  // e.g. a NaN the encoder refuses; the stream stays valid
+  }
+  camera_.Release(pair);
+
+  const uint64_t total_us = clock_.NowUs() - start_us;
+  status_.last_proc_us = static_cast<uint32_t>(total_us > UINT32_MAX ? UINT32_MAX : total_us);
+  if (status_.last_proc_us > status_.max_proc_us) status_.max_proc_us = status_.last_proc_us;
+  if (total_us > config_.frame_period_us) ++status_.deadline_overruns;
+  ++status_.frames_processed;
+  MaybeSendStatus(pair.exposure_us);
+  bv_pair_end();
+  return true;
+}
+
+void MainLoop::RunUntilFinished() {
+  while (!camera_.Finished()) Poll();
+  SendStatus();
+}
+
+}  // namespace bv::fw

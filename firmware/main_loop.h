@@ -1,0 +1,159 @@
+#pragma once
+// The board-independent firmware: init (blobs from storage, camera start) and the frame loop
+//   acquire newest pair -> pipeline -> ball-state packet -> UART -> release
+// with deadline accounting and a status packet at least once per second. Never allocates and
+// never blocks: a missing camera pair is polled again, a full UART drops (and counts) a packet.
+#include <cstddef>
+#include <cstdint>
+#include <span>
+
+#include "core/calibration/calibration.h"
+#include "core/color_lut/color_lut.h"
+#include "core/common/blob.h"
+#include "core/common/status.h"
+#include "core/pipeline.h"
+#include "core/protocol/commands.h"
+#include "core/protocol/protocol.h"
+#include "hal/camera.h"
+#include "hal/clock.h"
+#include "hal/storage.h"
+#include "hal/uart.h"
+
+namespace bv::fw {
+
+/// Largest blob validated at boot (calibration or colour LUT, header included).
+inline constexpr size_t kBlobScratchBytes =
+    kCalibrationBlobMaxBytes > kColorLutBlobBytes ? kCalibrationBlobMaxBytes : kColorLutBlobBytes;
+
+/// Upload buffer: a staging half for the incoming blob and a verification half (read-back and
+/// the trial parse); in external RAM on the boards.
+inline constexpr size_t kUploadBufferBytes = 2 * kBlobScratchBytes;
+
+/// Parameters the main computer may set (protocol kSetParam).
+enum ParamId : uint16_t {
+  kParamFramePeriodUs = 1,     // 1000 .. 1000000
+  kParamStatusIntervalUs = 2,  // 100000 .. 10000000
+};
+
+struct MainLoopConfig {
+  uint32_t frame_period_us = 33333;       // processing longer than this is an overrun
+  uint32_t status_interval_us = 1000000;  // of exposure time (and of clock time when idle)
+  int calibration_slots[2] = {0, 1};      // A/B storage slots (hal/common/blob_store.h)
+  int lut_slots[2] = {2, 3};
+  PipelineConfig pipeline;
+};
+
+/// Bits of StatusReport::fault_flags set by the main loop.
+enum FaultFlags : uint32_t {
+  kFaultPipelineNotReady = 1u << 0,  // no usable calibration / LUT: ball states are "not found"
+  kFaultCameraBadInput = 1u << 1,    // the camera layer rejected frames (see board counter)
+  kFaultCameraStart = 1u << 2,       // Camera::Start failed
+};
+
+class MainLoop {
+ public:
+  /// `blob_scratch` holds one blob while it is validated in Init() (>= kBlobScratchBytes); it
+  /// is not used afterwards, so a board may lend a camera DMA slot before Camera::Start().
+  /// `upload_buffer` (>= kUploadBufferBytes, else uploads are refused) receives calibration /
+  /// LUT uploads from the main computer.
+  /// `camera_bad_input` is an optional board counter of rejected frames/rows, reported through
+  /// kFaultCameraBadInput.
+  MainLoop(hal::Camera& camera, hal::Uart& uart, hal::Clock& clock, hal::Storage& storage,
+           std::span<uint8_t> blob_scratch, const MainLoopConfig& config = MainLoopConfig(),
+           const uint32_t* camera_bad_input = nullptr,
+           std::span<uint8_t> upload_buffer = std::span<uint8_t>());
+
+  /// Loads calibration and LUT (problems are reported in the status packet, not fatal), starts
+  /// the camera and sends the first status packet. Errors: the camera's Start() error.
+  Status Init();
+  /// One non-blocking iteration: serves received commands, then at most one frame pair.
+  /// Returns true when a frame pair was handled.
+  bool Poll();
+  /// Polls until the camera reports Finished() (captured sequences), then sends a final status
+  /// packet. A live camera never finishes: this is then the firmware's forever loop.
+  void RunUntilFinished();
+  /// Encodes and queues the status packet now.
+  void SendStatus();
+
+  const protocol::StatusReport& status() const { return status_; }
+  uint32_t ball_packets_sent() const { return ball_packets_sent_; }
+  uint32_t status_packets_sent() const { return status_packets_sent_; }
+  bool pipeline_ready() const { return pipeline_ready_; }
+
+ private:
+  protocol::BlobState LoadCalibration();
+  protocol::BlobState LoadLut();
+  /// Loads the current blob of `kind` from an A/B slot pair (hal::BlobStore) into
+  /// blob_scratch_ and points `blob` at it; returns the state for the status packet.
+  protocol::BlobState ReadSlotPair(const int (&slots)[2], BlobKind kind, uint16_t max_version,
+                                   std::span<const uint8_t>& blob);
+  void Send(std::span<const uint8_t> frame);
+  void PollCommands();
+  void InitPipeline();
+
+  // Uploads over the A/B blob stores; nothing changes until an upload is verified and saved.
+  class Uploads : public protocol::UploadSink {
+   public:
+    explicit Uploads(MainLoop& loop) : loop_(loop) {}
+    size_t capacity(protocol::UploadTarget target) const override;
+    Status Begin(protocol::UploadTarget target, size_t total_len) override;
+    Status Write(protocol::UploadTarget target, size_t offset,
+                 std::span<const uint8_t> data) override;
+    Status Commit(protocol::UploadTarget target, uint32_t total_crc32) override;
+    void Abort(protocol::UploadTarget target) override;
+
+   private:
+    MainLoop& loop_;
+    size_t length_ = 0;
+  };
+  class Params : public protocol::ParamSink {
+   public:
+    explicit Params(MainLoop& loop) : loop_(loop) {}
+    Status SetParam(uint16_t id, float value) override;
+
+   private:
+    MainLoop& loop_;
+  };
+  void CountPairFlags(const hal::FramePair& pair);
+  void MaybeSendStatus(uint64_t exposure_us);
+
+  hal::Camera& camera_;
+  hal::Uart& uart_;
+  hal::Clock& clock_;
+  hal::Storage& storage_;
+  std::span<uint8_t> blob_scratch_;
+  MainLoopConfig config_;
+  const uint32_t* camera_bad_input_;
+  std::span<uint8_t> upload_buffer_;
+
+  RigCalibration calibration_;
+  ColorLut lut_;  // 64 KB: the loop object is meant to be static, never on the stack
+  Pipeline pipeline_;
+  bool pipeline_ready_ = false;
+  protocol::StatusReport status_;
+  uint32_t seq_ = 0;
+  uint32_t ball_packets_sent_ = 0;
+  uint32_t status_packets_sent_ = 0;
+  // Status cadence and frame rate: the pairs since the last status packet.
+  uint32_t interval_pairs_ = 0;
+  uint64_t interval_first_exposure_us_ = 0;
+  uint64_t interval_last_exposure_us_ = 0;
+  uint64_t last_status_clock_us_ = 0;
+  bool have_status_exposure_ = false;
+  uint64_t last_status_exposure_us_ = 0;  // exposure time at which the last status went out
+  uint8_t packet_[protocol::kMaxWireFrameBytes] = {};
+  Uploads uploads_{*this};
+  Params params_{*this};
+  protocol::Decoder rx_;
+  protocol::CommandHandler commands_{uploads_, params_};
+};
+
+}  // namespace bv::fw
+
+/// Marker functions for the instruction-count plugin (firmware/tools/insncount.c); they do
+/// nothing. bv_perf_*: around Pipeline::Process. bv_pair_*: a whole pair in the loop (after
+/// the camera handed it out: pipeline, packet encoding, UART queueing, release, status).
+extern "C" void bv_perf_begin();
+extern "C" void bv_perf_end();
+extern "C" void bv_pair_begin();
+extern "C" void bv_pair_end();

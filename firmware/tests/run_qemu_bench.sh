@@ -1,0 +1,40 @@
+#!/usr/bin/env bash
+# Prints the exact guest instruction count per frame pair of the firmware in QEMU (TCG plugin
+# firmware/tools/insncount.c between marker functions). Prints figures; asserts nothing about
+# them. Exit 77 when the shared data is absent.
+#   run_qemu_bench.sh QEMU ELF BALLVISION SRC_SEQ WORK_DIR COUNT PLUGIN NM [CALIB_JSON] [LUT_BLOB]
+set -u
+qemu=$1 elf=$2 bv=$3 src=$4 work=$5 count=$6 plugin=$7 nm=$8 cal=${9:-} lut=${10:-}
+fail() { echo "FAIL: $*"; exit 1; }
+if [ ! -f "$src/frames.csv" ]; then echo "SKIP: $src not found"; exit 77; fi
+[ -x "$bv" ] || fail "host tool $bv not built: build the host preset first"
+[ -f "$plugin" ] || fail "plugin $plugin not built (target fw_insncount_plugin)"
+rm -rf "$work" && mkdir -p "$work"
+"$bv" seq to-raw "$src" "$work/seq" --first 0 --count "$count" > /dev/null || fail "seq to-raw failed"
+args="arg=seq=$work/seq"
+if [ -n "$cal" ] && [ -f "$cal" ]; then
+  "$bv" calib to-blob "$cal" "$work/calib.bin" > /dev/null || fail "calib to-blob $cal failed"
+  args="$args,arg=cal=$work/calib.bin"
+fi
+[ -n "$lut" ] && [ -f "$lut" ] && args="$args,arg=lut=$lut"
+addr() { "$nm" "$elf" | awk -v s="$1" '$3 == s { print "0x" $1 }'; }
+
+run() {  # $1 begin marker, $2 end marker, $3 log
+  "$qemu" -machine mps2-an500 -display none -monitor none -icount shift=0 \
+    -serial "file:$work/uart.bin" -semihosting-config "enable=on,target=native,$args" \
+    -plugin "$plugin,begin=$(addr "$1"),end=$(addr "$2")" -d plugin -D "$3" \
+    -kernel "$elf" < /dev/null 2> "$work/qemu.err" || { cat "$work/qemu.err"; fail "QEMU failed"; }
+  grep '^insncount:' "$3" | tail -1
+}
+echo "firmware: $elf"
+echo "sequence: $count frame pairs of $src (raw YUYV via ballvision seq to-raw)"
+echo "calibration: ${cal:-none}, LUT: ${lut:-none}"
+pipe=$(run bv_perf_begin bv_perf_end "$work/pipeline.log")
+pair=$(run bv_pair_begin bv_pair_end "$work/pair.log")
+echo "pipeline (Pipeline::Process) per frame pair: $pipe"
+echo "whole loop per frame pair (pipeline + packet + UART + status): $pair"
+if echo "$pipe" | grep -q 'intervals=0 '; then
+  echo "note: the pipeline did not run (no valid calibration + LUT: BV_FW_CALIB_JSON and"
+  echo "      BV_FW_LUT_BLOB); the loop figure then covers the no-calibration path only"
+fi
+echo "budget (DESIGN.md §5): <= 1500000 instructions per frame pair, full pipeline"

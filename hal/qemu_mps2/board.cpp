@@ -1,0 +1,178 @@
+// mps2-an500 board bring-up for the firmware. Command line (semihosting `arg=` items, joined by
+// spaces, so paths must not contain spaces):
+//   seq=DIR        captured sequence with raw .yuyv frames (required)
+//   cal=FILE       calibration blob, stored into the calibration A/B slots (optional)
+//   lut=FILE       colour LUT blob, stored into the LUT A/B slots (optional)
+//   frames=N       stop after N pairs (optional)
+//   period_us=N    frame period for the deadline accounting (default 33333)
+//   rx_bytes=N     test aid: the replay ends only after N bytes arrived on UART0
+//   selftest=fault executes an undefined instruction (tests the fault handler)
+#include <cstring>
+
+#include "firmware/board.h"
+#include "hal/common/blob_store.h"
+#include "hal/qemu_mps2/camera.h"
+#include "hal/qemu_mps2/clock.h"
+#include "hal/qemu_mps2/registers.h"
+#include "hal/qemu_mps2/semihosting.h"
+#include "hal/qemu_mps2/storage.h"
+#include "hal/qemu_mps2/uart.h"
+
+namespace bv::fw {
+namespace {
+
+using namespace bv::qemu;
+
+// DMA frame slots and the RAM blob slots live in PSRAM (outside the static RAM budget).
+__attribute__((section(".frames"), aligned(32))) FrameSlots g_frame_slots;
+__attribute__((section(".psram"), aligned(32)))
+uint8_t g_storage_mem[RamStorage::kSlots * RamStorage::kSlotBytes];
+
+__attribute__((section(".psram"), aligned(32))) uint8_t g_upload[kUploadBufferBytes];
+
+char g_cmdline[512];
+CmsdkUart* g_uart = nullptr;  // for the flush at exit
+
+// Finds "key=" in the command line and copies its value; false if absent or too long.
+bool GetArg(const char* key, char* out, size_t out_size) {
+  const size_t klen = std::strlen(key);
+  const char* p = g_cmdline;
+  while (*p != '\0') {
+    while (*p == ' ') ++p;
+    const char* tok = p;
+    while (*p != '\0' && *p != ' ') ++p;
+    const size_t tlen = static_cast<size_t>(p - tok);
+    if (tlen > klen && std::strncmp(tok, key, klen) == 0 && tok[klen] == '=') {
+      const size_t vlen = tlen - klen - 1;
+      if (vlen + 1 > out_size) return false;
+      std::memcpy(out, tok + klen + 1, vlen);
+      out[vlen] = '\0';
+      return true;
+    }
+  }
+  return false;
+}
+
+bool ParseU32(const char* s, uint32_t& out) {
+  uint64_t v = 0;
+  if (*s == '\0') return false;
+  for (; *s != '\0'; ++s) {
+    if (*s < '0' || *s > '9') return false;
+    v = v * 10 + static_cast<uint64_t>(*s - '0');
+    if (v > UINT32_MAX) return false;
+  }
+  out = static_cast<uint32_t>(v);
+  return true;
+}
+
+bool GetU32Arg(const char* key, uint32_t& out) {
+  char buf[16];
+  if (!GetArg(key, buf, sizeof(buf))) return false;
+  if (ParseU32(buf, out)) return true;
+  SemiWrite0("board: ignoring non-numeric argument ");
+  SemiWrite0(key);
+  SemiWrite0("\n");
+  return false;
+}
+
+void LogBlobProblem(const char* path, const char* what, const char* detail) {
+  SemiWrite0("board: ");
+  SemiWrite0(path);
+  SemiWrite0(": ");
+  SemiWrite0(what);
+  SemiWrite0(detail);
+  SemiWrite0("\n");
+}
+
+// Stores a blob file the way the firmware would after an upload: through the A/B BlobStore. A
+// file that is not a valid blob is copied raw into slot A instead, standing in for a damaged
+// flash slot, so the main loop's "corrupt" path can be exercised.
+void LoadBlobArg(RamStorage& storage, const char* key, const int (&slots)[2], BlobKind kind,
+                 uint16_t max_version) {
+  char path[SemihostingCamera::kMaxPath + 1];
+  if (!GetArg(key, path, sizeof(path))) return;
+  // Before the camera starts, two DMA slots serve as file and read-back buffers.
+  const std::span<uint8_t> file(g_frame_slots[1][0], kFrameBytes);
+  const std::span<uint8_t> verify(g_frame_slots[1][1], kFrameBytes);
+  const Result<size_t> n = SemiReadFile(path, file);
+  if (!n.ok()) {
+    LogBlobProblem(path, "", n.status().message());
+    return;
+  }
+  hal::BlobStore store(storage, slots[0], slots[1], kind, max_version);
+  const Status st = store.Save(file.first(*n), verify);
+  if (st.ok()) return;
+  LogBlobProblem(path, "not stored through the blob store, copied raw into slot A: ", st.message());
+  const size_t raw = *n < storage.slot_size() ? *n : storage.slot_size();
+  if (!storage.Erase(slots[0]).ok() || !storage.Write(slots[0], 0, file.first(raw)).ok()) {
+    LogBlobProblem(path, "", "raw copy failed");
+  }
+}
+
+}  // namespace
+
+Status BoardInit(BoardServices& out) {
+  static CmsdkUart uart(kUart0);
+  static DualTimerClock clock(kDualTimer1);
+  static RamStorage storage(g_storage_mem);
+  uart.Init();
+  g_uart = &uart;
+  clock.Init();
+  storage.Init();
+
+  if (!SemiGetCmdline(g_cmdline, sizeof(g_cmdline))) {
+    return Status(StatusCode::kInvalidArgument, "board: semihosting command line too long");
+  }
+  char mode[16];
+  if (GetArg("selftest", mode, sizeof(mode)) && std::strcmp(mode, "fault") == 0) {
+    // QEMU's MPS2 model answers reads of unimplemented addresses with zero instead of a bus
+    // fault, so the self-test uses a permanently undefined instruction (UsageFault UNDEFINSTR).
+    SemiWrite0("board: selftest=fault, executing an undefined instruction\n");
+    asm volatile("udf #0");
+  }
+
+  uint32_t value = 0;
+  if (GetU32Arg("period_us", value) && value > 0) out.config.frame_period_us = value;
+  uint32_t max_pairs = 0;
+  GetU32Arg("frames", max_pairs);
+
+  LoadBlobArg(storage, "cal", out.config.calibration_slots, BlobKind::kCalibration,
+              kCalibrationBlobVersion);
+  LoadBlobArg(storage, "lut", out.config.lut_slots, BlobKind::kColorLut, kColorLutBlobVersion);
+
+  char seq[SemihostingCamera::kMaxPath + 1];
+  if (!GetArg("seq", seq, sizeof(seq))) {
+    return Status(StatusCode::kInvalidArgument,
+                  "board: no seq=DIR on the semihosting command line");
+  }
+  static SemihostingCamera camera(g_frame_slots, seq, hal::PairerConfig(), max_pairs);
+
+  uint32_t rx_bytes = 0;
+  if (GetU32Arg("rx_bytes", rx_bytes)) camera.HoldOpenUntil(uart.rx_bytes(), rx_bytes);
+
+  out.camera = &camera;
+  out.uart = &uart;
+  out.clock = &clock;
+  out.storage = &storage;
+  out.camera_bad_input = camera.bad_input_counter();
+  return Status();
+}
+
+std::span<uint8_t> BoardBlobScratch(size_t min_bytes) {
+  // The main loop validates blobs before the camera starts: lend it a DMA slot.
+  static_assert(kFrameBytes >= kBlobScratchBytes);
+  (void)min_bytes;
+  return std::span<uint8_t>(g_frame_slots[0][0], kFrameBytes);
+}
+
+std::span<uint8_t> BoardUploadBuffer() { return g_upload; }
+
+void BoardLog(const char* text) { SemiWrite0(text); }
+
+void BoardExit(int code) {
+  // The UART (ring + hardware) is fully drained before QEMU exits and closes the serial file.
+  if (g_uart != nullptr) g_uart->Flush();
+  SemiExit(code);
+}
+
+}  // namespace bv::fw

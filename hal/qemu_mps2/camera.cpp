@@ -1,0 +1,174 @@
+#include "hal/qemu_mps2/camera.h"
+
+#include <cstring>
+
+#include "hal/qemu_mps2/semihosting.h"
+
+namespace bv::qemu {
+
+SemihostingCamera::SemihostingCamera(FrameSlots& slots, const char* dir,
+                                     const hal::PairerConfig& pairer, uint32_t max_pairs)
+    : slots_(slots), pairer_config_(pairer), pairer_(pairer), max_pairs_(max_pairs) {
+  const size_t n = std::strlen(dir);
+  if (n <= kMaxPath) std::memcpy(dir_, dir, n + 1);  // else dir_ stays empty: Start() fails
+}
+
+void SemihostingCamera::Report(const char* what, uint32_t line, const char* detail) {
+  SemiWrite0("camera: ");
+  SemiWrite0(dir_);
+  SemiWrite0("/frames.csv: ");
+  SemiWrite0(what);
+  SemiWrite0(": ");
+  SemiWrite0(detail);
+  SemiWriteDec(" at line", line);
+}
+
+Status SemihostingCamera::DoStart() {
+  finished_ = true;  // until the sequence is open: a replay without a source has ended
+  if (dir_[0] == '\0') {
+    return Status(StatusCode::kInvalidArgument, "camera: sequence directory missing or too long");
+  }
+  char path[kMaxPath + 16];
+  const size_t n = std::strlen(dir_);
+  std::memcpy(path, dir_, n);
+  std::memcpy(path + n, "/frames.csv", sizeof("/frames.csv"));
+  csv_fd_ = SemiOpenRead(path);
+  if (csv_fd_ < 0) {
+    SemiWrite0("camera: cannot open ");
+    SemiWrite0(path);
+    SemiWrite0("\n");
+    return Status(StatusCode::kUnavailable, "camera: cannot open frames.csv");
+  }
+  reader_.Reset(csv_fd_);
+  const LineReader::Result r = reader_.Next();
+  if (r != LineReader::Result::kLine || !IsFramesHeader(reader_.line(), reader_.length())) {
+    Report("bad header", reader_.line_number(), "expected index,t_us,omni_file,persp_file");
+    return Status(StatusCode::kInvalidArgument, "camera: frames.csv has no valid header");
+  }
+  finished_ = false;
+  return Status();
+}
+
+bool SemihostingCamera::LoadFrame(hal::CameraId id, const char* file, const FramesRow& row,
+                                  uint32_t line, uint32_t& slot) {
+  (void)row;
+  const int c = static_cast<int>(id);
+  const size_t fn = std::strlen(file);
+  if (fn < 5 || std::strcmp(file + fn - 5, ".yuyv") != 0) {
+    Report("frame file is not raw .yuyv (convert with `ballvision seq to-raw`)", line, file);
+    return false;
+  }
+  char path[kMaxPath + kMaxCsvField + 2];
+  const size_t dn = std::strlen(dir_);
+  std::memcpy(path, dir_, dn);
+  path[dn] = '/';
+  std::memcpy(path + dn + 1, file, fn + 1);
+  // The DMA never writes the slot the main loop holds nor one with an unserved frame.
+  const int pending = pairer_.pending_slot(id);
+  int target = -1;
+  for (int s = 0; s < kSlotsPerCamera; ++s) {
+    if (s != held_[c] && s != pending) {
+      target = s;
+      break;
+    }
+  }
+  if (target < 0) {
+    Report("no free DMA slot", line, file);
+    return false;
+  }
+  const int fd = SemiOpenRead(path);
+  if (fd < 0) {
+    Report("cannot open frame file", line, file);
+    return false;
+  }
+  const long len = SemiFileLength(fd);
+  bool ok = false;
+  if (len != static_cast<long>(kFrameBytes)) {
+    Report("frame file is not 640x480x2 bytes", line, file);
+  } else if (SemiRead(fd, slots_[c][target], kFrameBytes) != static_cast<int>(kFrameBytes)) {
+    Report("short read of frame file", line, file);
+  } else {
+    ok = true;
+  }
+  SemiClose(fd);
+  slot = static_cast<uint32_t>(target);
+  return ok;
+}
+
+Status SemihostingCamera::DoAcquirePair(hal::FramePair& out) {
+  if (finished_ || csv_fd_ < 0) {
+    return Status(StatusCode::kUnavailable, "camera: no frame");
+  }
+  if (max_pairs_ != 0 && pairs_served_ >= max_pairs_) {
+    finished_ = true;
+    return Status(StatusCode::kUnavailable, "camera: frame limit reached");
+  }
+  FramesRow row;
+  uint32_t line = 0;
+  for (;;) {
+    const LineReader::Result r = reader_.Next();
+    line = reader_.line_number();
+    if (r == LineReader::Result::kEof || r == LineReader::Result::kIoError) {
+      if (r == LineReader::Result::kIoError) Report("read error", line, "end of replay");
+      finished_ = true;
+      SemiClose(csv_fd_);
+      csv_fd_ = -1;
+      return Status(StatusCode::kUnavailable, "camera: end of sequence");
+    }
+    if (r == LineReader::Result::kTooLong) {
+      Report("line too long", line, "row skipped");
+    } else if (reader_.length() == 0) {
+      continue;  // blank line
+    } else {
+      const Status st = ParseFramesRow(reader_.line(), reader_.length(), row);
+      if (st.ok()) break;
+      Report("malformed row", line, st.message());
+    }
+    ++bad_rows_;
+    ++bad_input_;
+  }
+
+  const char* files[hal::kCameraCount] = {row.omni_file, row.persp_file};
+  for (int c = 0; c < hal::kCameraCount; ++c) {
+    if (files[c][0] == '\0') continue;
+    uint32_t slot = 0;
+    const auto id = static_cast<hal::CameraId>(c);
+    if (LoadFrame(id, files[c], row, line, slot)) {
+      pairer_.OnFrameComplete(id, row.t_us, static_cast<uint32_t>(row.index), slot);
+    } else {
+      ++bad_frames_;
+      ++bad_input_;
+    }
+  }
+  // A replay has no partner arriving later: decide at once.
+  hal::PairDecision d;
+  if (!pairer_.TakePair(row.t_us + pairer_config_.missing_timeout_us, d)) {
+    return Status(StatusCode::kUnavailable, "camera: row without a usable frame");
+  }
+  out = hal::FramePair{};
+  hal::Frame* frames[hal::kCameraCount] = {&out.omni, &out.persp};
+  for (int c = 0; c < hal::kCameraCount; ++c) {
+    if (!d.has[c]) continue;
+    hal::Frame& f = *frames[c];
+    f.data = slots_[c][d.slot[c]];
+    f.size_bytes = kFrameBytes;
+    f.exposure_us = d.exposure_us[c];
+    f.sequence = d.sequence[c];
+    f.present = true;
+    held_[c] = static_cast<int>(d.slot[c]);
+  }
+  out.exposure_us = d.exposure_us_pair;
+  out.skew_us = d.skew_us;
+  out.flags = d.flags;
+  out.dropped = d.dropped;
+  out.slot = (d.slot[0] & 0xFFu) | ((d.slot[1] & 0xFFu) << 8);
+  ++pairs_served_;
+  return Status();
+}
+
+void SemihostingCamera::DoRelease(const hal::FramePair& pair) {
+  if (pair.omni.present) held_[0] = -1;
+  if (pair.persp.present) held_[1] = -1;
+}
+
+}  // namespace bv::qemu

@@ -1,0 +1,156 @@
+// Vector table, reset and fault handling for mps2-an500 (everything in C++, no crt0).
+#include <cstdint>
+#include <cstring>
+#include <new>
+
+#include "hal/qemu_mps2/registers.h"
+#include "hal/qemu_mps2/semihosting.h"
+
+extern "C" {
+extern uint32_t __stack_top;
+extern uint32_t __data_load;
+extern uint32_t __data_start;
+extern uint32_t __data_end;
+extern uint32_t __bss_start;
+extern uint32_t __bss_end;
+extern void (*__init_array_start[])();
+extern void (*__init_array_end[])();
+int main();
+[[noreturn]] void Reset_Handler();
+[[noreturn]] void Fault_Handler();
+void Default_Handler();
+}
+
+namespace {
+
+using Vector = void (*)();
+
+// Exit codes a test can tell apart: 100 fault, 101 failed assert, 102 unexpected interrupt.
+constexpr int kExitFault = 100;
+constexpr int kExitAssert = 101;
+constexpr int kExitUnexpectedIrq = 102;
+
+}  // namespace
+
+extern "C" __attribute__((section(".vectors"), used)) const Vector g_vectors[16 + 32] = {
+    reinterpret_cast<Vector>(&__stack_top),
+    Reset_Handler,
+    Fault_Handler,  // NMI
+    Fault_Handler,  // HardFault
+    Fault_Handler,  // MemManage
+    Fault_Handler,  // BusFault
+    Fault_Handler,  // UsageFault
+    nullptr,
+    nullptr,
+    nullptr,
+    nullptr,
+    Default_Handler,  // SVC
+    Default_Handler,  // DebugMon
+    nullptr,
+    Default_Handler,  // PendSV
+    Default_Handler,  // SysTick
+    // External interrupts are not used: everything is polled.
+    Default_Handler,
+    Default_Handler,
+    Default_Handler,
+    Default_Handler,
+    Default_Handler,
+    Default_Handler,
+    Default_Handler,
+    Default_Handler,
+    Default_Handler,
+    Default_Handler,
+    Default_Handler,
+    Default_Handler,
+    Default_Handler,
+    Default_Handler,
+    Default_Handler,
+    Default_Handler,
+    Default_Handler,
+    Default_Handler,
+    Default_Handler,
+    Default_Handler,
+    Default_Handler,
+    Default_Handler,
+    Default_Handler,
+    Default_Handler,
+    Default_Handler,
+    Default_Handler,
+    Default_Handler,
+    Default_Handler,
+    Default_Handler,
+    Default_Handler,
+    Default_Handler,
+    Default_Handler,
+};
+
+extern "C" void Reset_Handler() {
+  using namespace bv::qemu;
+  // FPU first: any FP instruction before this faults (CP10/CP11 full access).
+  kScb->CPACR = kScb->CPACR | (0xFu << 20);
+  asm volatile("dsb\n isb" ::: "memory");
+  kScb->SHCSR = kScb->SHCSR | (7u << 16);  // separate MemManage/BusFault/UsageFault
+  kScb->CCR = kScb->CCR | (1u << 4);       // trap divide by zero
+
+  const size_t data_bytes = static_cast<size_t>(reinterpret_cast<uint8_t*>(&__data_end) -
+                                                reinterpret_cast<uint8_t*>(&__data_start));
+  std::memcpy(&__data_start, &__data_load, data_bytes);
+  const size_t bss_bytes = static_cast<size_t>(reinterpret_cast<uint8_t*>(&__bss_end) -
+                                               reinterpret_cast<uint8_t*>(&__bss_start));
+  std::memset(&__bss_start, 0, bss_bytes);
+  for (auto** f = __init_array_start; f < __init_array_end; ++f) (*f)();
+
+  SemiExit(main());
+}
+
+// Naked so that r0 is the exception frame before the compiler pushes anything.
+extern "C" __attribute__((naked)) void Fault_Handler() {
+  asm volatile("mrs r0, msp\n b FaultReport");
+}
+
+extern "C" [[noreturn]] __attribute__((used)) void FaultReport(const uint32_t* frame) {
+  using namespace bv::qemu;
+  uint32_t ipsr;
+  asm volatile("mrs %0, ipsr" : "=r"(ipsr));
+  SemiWrite0("FAULT: firmware crashed\n");
+  SemiWriteHex("IPSR", ipsr);
+  SemiWriteHex("CFSR", kScb->CFSR);
+  SemiWriteHex("HFSR", kScb->HFSR);
+  SemiWriteHex("BFAR", kScb->BFAR);
+  SemiWriteHex("MMFAR", kScb->MMFAR);
+  SemiWriteHex("PC", frame[6]);  // stacked PC of the faulting instruction
+  SemiWriteHex("LR", frame[5]);
+  SemiExit(kExitFault);
+}
+
+extern "C" void Default_Handler() {
+  bv::qemu::SemiWrite0("FAULT: unexpected interrupt\n");
+  bv::qemu::SemiExit(kExitUnexpectedIrq);
+}
+
+// Newlib's version drags in stdio and malloc (and then fails the heap guard).
+extern "C" [[noreturn]] void __assert_func(const char* file, int line, const char* func,
+                                           const char* expr) {
+  using namespace bv::qemu;
+  SemiWrite0("ASSERT ");
+  SemiWrite0(file != nullptr ? file : "?");
+  SemiWriteDec(" line", static_cast<uint64_t>(line));
+  SemiWrite0(func != nullptr ? func : "?");
+  SemiWrite0(": ");
+  SemiWrite0(expr != nullptr ? expr : "?");
+  SemiWrite0("\n");
+  SemiExit(kExitAssert);
+}
+
+// Virtual destructors make the compiler emit deleting destructors that reference operator
+// delete; nothing is ever allocated, so these are never reached. Defining them keeps libstdc++'s
+// versions (and through them free()/the allocator) out of the image.
+void operator delete(void*) noexcept { bv::qemu::SemiExit(kExitAssert); }
+void operator delete(void*, size_t) noexcept { bv::qemu::SemiExit(kExitAssert); }
+void operator delete(void*, std::align_val_t) noexcept { bv::qemu::SemiExit(kExitAssert); }
+void operator delete(void*, size_t, std::align_val_t) noexcept { bv::qemu::SemiExit(kExitAssert); }
+
+// Function-local statics with (virtual) destructors register them through atexit() because of
+// -fno-use-cxa-atexit. The firmware never returns from main (it exits through semihosting or
+// loops forever), so nothing is ever destroyed: keep newlib's atexit tables out of the image.
+extern "C" int atexit(void (*)()) { return 0; }

@@ -1,0 +1,64 @@
+// STM32H743 board bring-up for the firmware: clocks (in Reset_Handler), pins, SDRAM, TIM2,
+// USART1 + DMA, flash blob slots, DCMI camera, watchdog.
+#include "firmware/board.h"
+#include "hal/stm32h7/camera.h"
+#include "hal/stm32h7/clock.h"
+#include "hal/stm32h7/flash_storage.h"
+#include "hal/stm32h7/registers.h"
+#include "hal/stm32h7/system.h"
+#include "hal/stm32h7/uart.h"
+
+namespace {
+
+using namespace bv::h7;
+
+// DMA capture slots in external SDRAM (outside the static RAM budget).
+__attribute__((section(".frames"), aligned(32))) CaptureSlots g_capture_slots;
+
+__attribute__((section(".sdram"), aligned(32))) uint8_t g_upload[bv::fw::kUploadBufferBytes];
+
+Tim2Clock g_clock;
+DmaUart g_uart;
+FlashStorage g_storage;
+DcmiCamera g_camera(g_capture_slots, g_clock, bv::hal::PairerConfig());
+
+}  // namespace
+
+extern "C" void DMA1_Stream0_IRQHandler() { g_uart.OnDmaIrq(); }
+extern "C" void DMA2_Stream1_IRQHandler() { g_camera.OnDmaIrq(); }
+extern "C" void DCMI_IRQHandler() { g_camera.OnDcmiIrq(); }
+
+namespace bv::fw {
+
+Status BoardInit(BoardServices& out) {
+  PinsInit();
+  SdramInit();
+  g_clock.Init();
+  g_uart.Init();
+  WatchdogInit();
+  out.camera = &g_camera;
+  out.uart = &g_uart;
+  out.clock = &g_clock;
+  out.storage = &g_storage;
+  out.camera_bad_input = g_camera.error_counter();
+  return Status();
+}
+
+std::span<uint8_t> BoardBlobScratch(size_t min_bytes) {
+  // Blobs are validated before the camera starts: lend the first capture slot.
+  static_assert(kSlotBytes >= kBlobScratchBytes);
+  (void)min_bytes;
+  return std::span<uint8_t>(g_capture_slots[0], kSlotBytes);
+}
+
+std::span<uint8_t> BoardUploadBuffer() { return g_upload; }
+
+void BoardLog(const char* text) { ItmWrite(text); }
+
+void BoardExit(int code) {
+  (void)code;
+  g_uart.Flush();
+  SystemReset();  // a live board never ends; a fatal init error restarts it
+}
+
+}  // namespace bv::fw

@@ -1,0 +1,486 @@
+// The board-independent firmware main loop on the host, with fixed-size fakes for the HAL.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <cstring>
+#include <memory>
+
+#include "core/common/blob.h"
+#include "core/common/bytes.h"
+#include "core/common/crc32.h"
+#include "core/protocol/protocol.h"
+#include "firmware/main_loop.h"
+#include "hal/common/blob_store.h"
+#include "tools/ballvision/demo_scene.h"
+#include "tools/ballvision/run_common.h"
+// The firmware folder is only built for the target; the loop is compiled into this test.
+#include "firmware/main_loop.cpp"  // NOLINT(build/include)
+
+namespace bv::fw {
+namespace {
+
+alignas(32) uint8_t g_frame[kFrameBytes];  // one grey frame shared by every fake pair
+
+struct ScriptedPair {
+  uint64_t t_us;
+  uint32_t flags;
+  uint32_t dropped;
+};
+
+class FakeCamera : public hal::Camera {
+ public:
+  static constexpr size_t kCapacity = 128;
+  void Add(const ScriptedPair& p) { script_[count_++] = p; }
+  void AddRegular(int n, uint64_t period_us) {
+    for (int i = 0; i < n; ++i) Add({static_cast<uint64_t>(i) * period_us, 0, 0});
+  }
+  int held() const { return held_; }
+  int idle_polls = 1;  // kUnavailable answers before each pair (the loop must poll, not block)
+
+ private:
+  Status DoStart() override { return Status(); }
+  Status DoAcquirePair(hal::FramePair& out) override {
+    if (next_ >= count_) return Status(StatusCode::kUnavailable, "end");
+    if (idle_left_-- > 0) return Status(StatusCode::kUnavailable, "not yet");
+    idle_left_ = idle_polls;
+    const ScriptedPair& p = script_[next_++];
+    out = hal::FramePair{};
+    if (!(p.flags & hal::kPairOmniMissing)) out.omni = {g_frame, kFrameBytes, p.t_us, 0, true};
+    if (!(p.flags & hal::kPairPerspMissing)) out.persp = {g_frame, kFrameBytes, p.t_us, 0, true};
+    out.exposure_us = p.t_us;
+    out.flags = p.flags;
+    out.dropped = p.dropped;
+    ++held_;
+    return Status();
+  }
+  void DoRelease(const hal::FramePair&) override { --held_; }
+  bool DoFinished() const override { return next_ >= count_; }
+
+  std::array<ScriptedPair, kCapacity> script_{};
+  size_t count_ = 0, next_ = 0;
+  int idle_left_ = 0;
+  int held_ = 0;
+};
+
+template <size_t kCapacity>
+class FakeUart : public hal::Uart {
+ public:
+  std::span<const uint8_t> bytes() const { return {buf_.data(), size_}; }
+  bool full = false;  // simulates a transmit buffer without room
+  uint32_t refused = 0;
+  /// Queues bytes "received from the main computer".
+  void Feed(std::span<const uint8_t> b) {
+    ASSERT_LE(rx_len_ + b.size(), rx_.size());
+    std::memcpy(rx_.data() + rx_len_, b.data(), b.size());
+    rx_len_ += b.size();
+  }
+  bool rx_empty() const { return rx_pos_ == rx_len_; }
+
+ private:
+  Status DoWrite(std::span<const uint8_t> b) override {
+    if (full || b.size() > kCapacity - size_) {
+      ++refused;
+      return Status(StatusCode::kUnavailable, "full");
+    }
+    std::memcpy(buf_.data() + size_, b.data(), b.size());
+    size_ += b.size();
+    return Status();
+  }
+  size_t DoWriteSpace() const override { return full ? 0 : kCapacity - size_; }
+  Result<size_t> DoRead(std::span<uint8_t> out) override {
+    const size_t n = std::min(out.size(), rx_len_ - rx_pos_);
+    std::memcpy(out.data(), rx_.data() + rx_pos_, n);
+    rx_pos_ += n;
+    return n;
+  }
+  std::array<uint8_t, kCapacity> buf_{};
+  size_t size_ = 0;
+  std::array<uint8_t, 160 * 1024> rx_{};
+  size_t rx_len_ = 0, rx_pos_ = 0;
+};
+
+// Every reading advances time by step_us: the loop reads the clock a fixed number of times per
+// pair, so processing time is proportional to step_us.
+class FakeClock : public hal::Clock {
+ public:
+  uint64_t step_us = 1;
+
+ private:
+  uint64_t DoNowUs() const override { return now_us_ += step_us; }
+  mutable uint64_t now_us_ = 0;
+};
+
+class FakeStorage : public hal::Storage {
+ public:
+  static constexpr int kSlots = 4;
+  static constexpr size_t kSlotBytes = 80 * 1024;
+  FakeStorage() { std::memset(mem_, 0xFF, sizeof(mem_)); }
+  void Put(int slot, std::span<const uint8_t> bytes) {
+    std::memcpy(mem_[slot], bytes.data(), bytes.size());
+  }
+
+ private:
+  int DoSlotCount() const override { return kSlots; }
+  size_t DoSlotSize() const override { return kSlotBytes; }
+  Status DoRead(int slot, size_t offset, std::span<uint8_t> out) override {
+    if (slot < 0 || slot >= kSlots || offset + out.size() > kSlotBytes) {
+      return Status(StatusCode::kOutOfRange, "range");
+    }
+    std::memcpy(out.data(), mem_[slot] + offset, out.size());
+    return Status();
+  }
+  Status DoErase(int slot) override {
+    std::memset(mem_[slot], 0xFF, kSlotBytes);
+    return Status();
+  }
+  Status DoWrite(int slot, size_t offset, std::span<const uint8_t> b) override {
+    std::memcpy(mem_[slot] + offset, b.data(), b.size());
+    return Status();
+  }
+  uint8_t mem_[kSlots][kSlotBytes];
+};
+
+struct Decoded {
+  int balls = 0;
+  int statuses = 0;
+  uint32_t decoder_errors = 0;
+  uint64_t ball_t_us[FakeCamera::kCapacity] = {};
+  protocol::StatusReport first_status, last_status;
+  int status_count_between_first_and_last_ball = 0;
+};
+
+Decoded Decode(std::span<const uint8_t> bytes) {
+  Decoded d;
+  protocol::Decoder dec;
+  protocol::FrameView f;
+  uint32_t expected_seq = 0;
+  for (uint8_t b : bytes) {
+    if (!dec.Push(b, f)) continue;
+    EXPECT_EQ(f.seq, expected_seq++) << "packet sequence numbers must be contiguous";
+    if (f.type == protocol::MsgType::kBallState) {
+      BallState s;
+      EXPECT_TRUE(protocol::ParseBallState(f.payload, s).ok());
+      if (d.balls < static_cast<int>(FakeCamera::kCapacity)) d.ball_t_us[d.balls] = s.t_us;
+      ++d.balls;
+    } else if (f.type == protocol::MsgType::kStatus) {
+      protocol::StatusReport st;
+      EXPECT_TRUE(protocol::ParseStatus(f.payload, st).ok());
+      if (d.statuses == 0) d.first_status = st;
+      d.last_status = st;
+      if (d.balls > 0) ++d.status_count_between_first_and_last_ball;
+      ++d.statuses;
+    }
+  }
+  d.decoder_errors = dec.stats().errors();
+  return d;
+}
+
+class MainLoopTest : public ::testing::Test {
+ protected:
+  void Run(const MainLoopConfig& config = MainLoopConfig()) {
+    loop_ = std::make_unique<MainLoop>(camera_, uart_, clock_, storage_, scratch_, config);
+    init_ = loop_->Init();
+    loop_->RunUntilFinished();
+  }
+  FakeCamera camera_;
+  FakeUart<64 * 1024> uart_;
+  FakeClock clock_;
+  FakeStorage storage_;
+  std::array<uint8_t, kBlobScratchBytes> scratch_{};
+  std::unique_ptr<MainLoop> loop_;
+  Status init_;
+};
+
+TEST_F(MainLoopTest, WithoutCalibrationEveryPairStillGivesOnePacketAndStatusSaysMissing) {
+  camera_.AddRegular(10, 33333);
+  Run();
+  ASSERT_TRUE(init_.ok()) << init_.message();
+  EXPECT_EQ(camera_.held(), 0) << "every acquired pair released";
+  const Decoded d = Decode(uart_.bytes());
+  EXPECT_EQ(d.decoder_errors, 0u);
+  EXPECT_EQ(d.balls, 10);
+  for (int i = 0; i < 10; ++i) EXPECT_EQ(d.ball_t_us[i], static_cast<uint64_t>(i) * 33333);
+  ASSERT_EQ(d.statuses, 2) << "boot + final (10 frames span < 1 s)";
+  EXPECT_EQ(d.first_status.frames_processed, 0u);
+  EXPECT_EQ(d.last_status.frames_processed, 10u);
+  EXPECT_EQ(d.last_status.calibration_state, static_cast<uint8_t>(protocol::BlobState::kMissing));
+  EXPECT_EQ(d.last_status.lut_state, static_cast<uint8_t>(protocol::BlobState::kMissing));
+  EXPECT_TRUE(d.last_status.fault_flags & kFaultPipelineNotReady);
+  EXPECT_EQ(d.last_status.frame_rate_mhz, 30000u);
+  EXPECT_EQ(d.last_status.deadline_overruns, 0u);
+  EXPECT_FALSE(loop_->pipeline_ready());
+}
+
+TEST_F(MainLoopTest, CorruptBlobsAreReportedAndTheLoopKeepsRunning) {
+  // Slot A: right magic, wrong CRC. Slot B of the LUT: a truncated header.
+  uint8_t payload[8] = {1, 2, 3, 4, 5, 6, 7, 8};
+  uint8_t blob[64];
+  const Result<size_t> n = WriteBlob(BlobKind::kCalibration, 1, payload, blob);
+  ASSERT_TRUE(n.ok());
+  blob[*n - 1] ^= 0xFF;
+  storage_.Put(0, std::span<const uint8_t>(blob, *n));
+  const Result<size_t> m = WriteBlob(BlobKind::kColorLut, 1, payload, blob);
+  ASSERT_TRUE(m.ok());
+  storage_.Put(3, std::span<const uint8_t>(blob, 10));  // header cut short, rest erased (0xFF)
+  camera_.AddRegular(3, 33333);
+  Run();
+  const Decoded d = Decode(uart_.bytes());
+  EXPECT_EQ(d.balls, 3);
+  EXPECT_EQ(d.last_status.calibration_state, static_cast<uint8_t>(protocol::BlobState::kCorrupt));
+  EXPECT_EQ(d.last_status.lut_state, static_cast<uint8_t>(protocol::BlobState::kCorrupt));
+}
+
+TEST_F(MainLoopTest, ValidLutBlobIsLoadedAndItsIdReported) {
+  static ColorLut lut;
+  lut.Fill(ColorClass::kField);
+  lut.Set(ColorLut::Index(200, 60, 200), ColorClass::kBall);
+  static uint8_t blob[kColorLutBlobBytes];
+  const Result<size_t> n = SerializeLut(lut, blob);
+  ASSERT_TRUE(n.ok());
+  hal::BlobStore store(storage_, 2, 3, BlobKind::kColorLut, kColorLutBlobVersion);
+  ASSERT_TRUE(store.Save(std::span<const uint8_t>(blob, *n), scratch_).ok());
+  camera_.AddRegular(2, 33333);
+  Run();
+  const Decoded d = Decode(uart_.bytes());
+  EXPECT_EQ(d.last_status.lut_state, static_cast<uint8_t>(protocol::BlobState::kOk));
+  EXPECT_EQ(d.last_status.lut_id, lut.Id());
+  EXPECT_EQ(d.last_status.calibration_state, static_cast<uint8_t>(protocol::BlobState::kMissing));
+  EXPECT_FALSE(loop_->pipeline_ready()) << "a LUT without calibration is not enough";
+}
+
+TEST_F(MainLoopTest, WithCalibrationAndLutThePipelineRunsOnEveryPair) {
+  static ColorLut lut;
+  cli::FillRuleLut(lut);
+  RigCalibration cal = cli::MakeDemoCalibration();
+  cal.lut_id = lut.Id();
+  static uint8_t blob[kColorLutBlobBytes];
+  const Result<size_t> cal_bytes = SerializeCalibration(cal, blob);
+  ASSERT_TRUE(cal_bytes.ok()) << cal_bytes.status().message();
+  hal::BlobStore cal_store(storage_, 0, 1, BlobKind::kCalibration, kCalibrationBlobVersion);
+  ASSERT_TRUE(cal_store.Save(std::span<const uint8_t>(blob, *cal_bytes), scratch_).ok());
+  const Result<size_t> lut_bytes = SerializeLut(lut, blob);
+  ASSERT_TRUE(lut_bytes.ok());
+  hal::BlobStore lut_store(storage_, 2, 3, BlobKind::kColorLut, kColorLutBlobVersion);
+  ASSERT_TRUE(lut_store.Save(std::span<const uint8_t>(blob, *lut_bytes), scratch_).ok());
+
+  camera_.AddRegular(5, 33333);
+  camera_.Add({5 * 33333, hal::kPairPerspMissing, 0});  // the pipeline copes with one camera
+  Run();
+  ASSERT_TRUE(loop_->pipeline_ready());
+  const Decoded d = Decode(uart_.bytes());
+  EXPECT_EQ(d.balls, 6);
+  const protocol::StatusReport& s = d.last_status;
+  EXPECT_EQ(s.calibration_state, static_cast<uint8_t>(protocol::BlobState::kOk));
+  EXPECT_EQ(s.calibration_id, cal.calibration_id);
+  EXPECT_EQ(s.lut_id, lut.Id());
+  EXPECT_EQ(s.pipeline_errors, 0u);
+  EXPECT_EQ(s.fault_flags & kFaultPipelineNotReady, 0u);
+}
+
+TEST_F(MainLoopTest, StatusAtLeastOncePerSecondOfExposureTimeWithFrameRate) {
+  camera_.AddRegular(100, 33333);  // 3.3 s
+  Run();
+  const Decoded d = Decode(uart_.bytes());
+  EXPECT_EQ(d.balls, 100);
+  // boot + at 1 s, 2 s, 3 s of exposure time + final
+  EXPECT_EQ(d.statuses, 5);
+  EXPECT_NEAR(d.last_status.frame_rate_mhz, 30000u, 30u);
+}
+
+TEST_F(MainLoopTest, PairFlagsAndDroppedFramesAreCounted) {
+  camera_.Add({0, 0, 0});
+  camera_.Add({33333, hal::kPairOmniMissing, 2});
+  camera_.Add({66666, hal::kPairPerspMissing, 0});
+  camera_.Add({99999, hal::kPairOutOfSync | hal::kPairTorn, 1});
+  camera_.Add({50000, hal::kPairOutOfOrder, 0});
+  Run();
+  const Decoded d = Decode(uart_.bytes());
+  EXPECT_EQ(d.balls, 5);
+  const protocol::StatusReport& s = d.last_status;
+  EXPECT_EQ(s.frames_processed, 5u);
+  EXPECT_EQ(s.frames_dropped, 3u);
+  EXPECT_EQ(s.pairs_omni_missing, 1u);
+  EXPECT_EQ(s.pairs_persp_missing, 1u);
+  EXPECT_EQ(s.pairs_out_of_sync, 1u);
+  EXPECT_EQ(s.pairs_torn, 1u);
+  EXPECT_EQ(s.pairs_out_of_order, 1u);
+}
+
+TEST_F(MainLoopTest, SlowProcessingCountsOverruns) {
+  camera_.AddRegular(4, 33333);
+  clock_.step_us = 20000;  // the loop reads the clock several times per pair: > 33333 us each
+  MainLoopConfig config;
+  Run(config);
+  const Decoded d = Decode(uart_.bytes());
+  EXPECT_EQ(d.last_status.deadline_overruns, 4u);
+  EXPECT_GT(d.last_status.max_proc_us, config.frame_period_us);
+}
+
+TEST_F(MainLoopTest, FullUartDropsWholePacketsAndCountsThem) {
+  camera_.AddRegular(6, 33333);
+  loop_ = std::make_unique<MainLoop>(camera_, uart_, clock_, storage_, scratch_);
+  ASSERT_TRUE(loop_->Init().ok());
+  for (int i = 0; i < 3; ++i) {
+    while (!loop_->Poll()) {
+    }
+  }
+  uart_.full = true;
+  for (int i = 0; i < 2; ++i) {
+    while (!loop_->Poll()) {
+    }
+  }
+  uart_.full = false;
+  loop_->RunUntilFinished();
+  EXPECT_EQ(loop_->status().packets_dropped, 2u);
+  protocol::Decoder dec;
+  protocol::FrameView f;
+  int balls = 0;
+  uint32_t last_seq = 0, gaps = 0;
+  for (uint8_t b : uart_.bytes()) {
+    if (!dec.Push(b, f)) continue;
+    if (f.seq != 0 && f.seq != last_seq + 1) ++gaps;
+    last_seq = f.seq;
+    balls += f.type == protocol::MsgType::kBallState;
+  }
+  EXPECT_EQ(dec.stats().errors(), 0u) << "no partial packet ever reached the stream";
+  EXPECT_EQ(balls, 4);
+  EXPECT_EQ(gaps, 1u) << "the receiver sees the drop as one sequence gap";
+}
+
+// --- commands from the main computer ---
+
+class MainLoopCommandsTest : public MainLoopTest {
+ protected:
+  void Start() {
+    loop_ = std::make_unique<MainLoop>(camera_, uart_, clock_, storage_, scratch_, MainLoopConfig(),
+                                       nullptr, upload_);
+    ASSERT_TRUE(loop_->Init().ok());
+  }
+  void Command(protocol::MsgType type, std::span<const uint8_t> payload) {
+    uint8_t wire[protocol::kMaxWireFrameBytes];
+    const Result<size_t> n = protocol::EncodeFrame(type, cmd_seq_++, payload, wire);
+    ASSERT_TRUE(n.ok());
+    uart_.Feed(std::span<const uint8_t>(wire, *n));
+  }
+  void Upload(protocol::UploadTarget target, std::span<const uint8_t> blob, uint32_t crc) {
+    uint8_t p[5 + protocol::kMaxChunkBytes];
+    ByteWriter begin(p);
+    begin.U8(static_cast<uint8_t>(target));
+    begin.U32(static_cast<uint32_t>(blob.size()));
+    begin.U32(crc);
+    Command(protocol::MsgType::kUploadBegin, begin.written());
+    for (size_t off = 0; off < blob.size(); off += protocol::kMaxChunkBytes) {
+      const size_t n = std::min(protocol::kMaxChunkBytes, blob.size() - off);
+      ByteWriter chunk(p);
+      chunk.U8(static_cast<uint8_t>(target));
+      chunk.U32(static_cast<uint32_t>(off));
+      chunk.Bytes(blob.subspan(off, n));
+      Command(protocol::MsgType::kUploadChunk, chunk.written());
+    }
+    const uint8_t t = static_cast<uint8_t>(target);
+    Command(protocol::MsgType::kUploadCommit, std::span<const uint8_t>(&t, 1));
+  }
+  void Drain() {
+    while (!uart_.rx_empty()) loop_->Poll();
+  }
+  // Counts replies in the transmitted stream; `last_error` gets the last error code.
+  void Replies(int& acks, int& errors, int& statuses, uint8_t& last_error) {
+    acks = errors = statuses = 0;
+    protocol::Decoder dec;
+    protocol::FrameView f;
+    for (uint8_t b : uart_.bytes()) {
+      if (!dec.Push(b, f)) continue;
+      if (f.type == protocol::MsgType::kAck) ++acks;
+      if (f.type == protocol::MsgType::kStatus) ++statuses;
+      if (f.type == protocol::MsgType::kError) {
+        ++errors;
+        last_error = f.payload.size() >= 6 ? f.payload[5] : 0xFF;
+      }
+    }
+  }
+  uint8_t upload_[kUploadBufferBytes] = {};
+  uint32_t cmd_seq_ = 0;
+};
+
+TEST_F(MainLoopCommandsTest, LutUploadIsVerifiedSavedAndActivated) {
+  Start();
+  static ColorLut lut;
+  cli::FillRuleLut(lut);
+  static uint8_t blob[kColorLutBlobBytes];
+  const Result<size_t> n = SerializeLut(lut, blob);
+  ASSERT_TRUE(n.ok());
+  const std::span<const uint8_t> b(blob, *n);
+  Upload(protocol::UploadTarget::kLut, b, Crc32(b));
+  Drain();
+  int acks, errors, statuses;
+  uint8_t code = 0;
+  Replies(acks, errors, statuses, code);
+  EXPECT_EQ(errors, 0);
+  EXPECT_EQ(acks,
+            static_cast<int>(2 + (*n + protocol::kMaxChunkBytes - 1) / protocol::kMaxChunkBytes));
+  EXPECT_EQ(loop_->status().lut_state, static_cast<uint8_t>(protocol::BlobState::kOk));
+  EXPECT_EQ(loop_->status().lut_id, lut.Id());
+  // Persisted: a fresh loop over the same storage loads it at boot.
+  MainLoop reboot(camera_, uart_, clock_, storage_, scratch_);
+  ASSERT_TRUE(reboot.Init().ok());
+  EXPECT_EQ(reboot.status().lut_id, lut.Id());
+}
+
+TEST_F(MainLoopCommandsTest, CorruptUploadIsRefusedAndNothingChanges) {
+  Start();
+  static ColorLut lut;
+  cli::FillRuleLut(lut);
+  static uint8_t blob[kColorLutBlobBytes];
+  const Result<size_t> n = SerializeLut(lut, blob);
+  ASSERT_TRUE(n.ok());
+  const std::span<const uint8_t> b(blob, *n);
+  Upload(protocol::UploadTarget::kLut, b, Crc32(b) ^ 1u);  // transfer CRC wrong
+  blob[100] = 200;  // a class value that does not exist, with a matching transfer CRC
+  Upload(protocol::UploadTarget::kLut, b, Crc32(b));
+  Drain();
+  int acks, errors, statuses;
+  uint8_t code = 0;
+  Replies(acks, errors, statuses, code);
+  EXPECT_EQ(errors, 2);
+  EXPECT_EQ(code, static_cast<uint8_t>(protocol::CommandError::kVerifyFailed));
+  EXPECT_EQ(loop_->status().lut_state, static_cast<uint8_t>(protocol::BlobState::kMissing));
+  loop_->SendStatus();  // the counters are refreshed with every status packet
+  EXPECT_EQ(loop_->status().command_errors, 2u);
+  MainLoop reboot(camera_, uart_, clock_, storage_, scratch_);
+  ASSERT_TRUE(reboot.Init().ok());
+  EXPECT_EQ(reboot.status().lut_state, static_cast<uint8_t>(protocol::BlobState::kMissing));
+}
+
+TEST_F(MainLoopCommandsTest, ParametersAndStatusRequests) {
+  Start();
+  uint8_t p[6];
+  ByteWriter w(p);
+  w.U16(kParamFramePeriodUs);
+  w.F32(1000.0f);
+  Command(protocol::MsgType::kSetParam, w.written());
+  ByteWriter bad(p);
+  bad.U16(77);
+  bad.F32(1.0f);
+  Command(protocol::MsgType::kSetParam, bad.written());
+  Command(protocol::MsgType::kRequestStatus, {});
+  const uint8_t garbage[] = {0x11, 0x22, 0x33, 0x00};  // not a valid frame: counted, ignored
+  uart_.Feed(garbage);
+  Drain();
+  int acks, errors, statuses;
+  uint8_t code = 0;
+  Replies(acks, errors, statuses, code);
+  EXPECT_EQ(acks, 1);
+  EXPECT_EQ(errors, 1);
+  EXPECT_EQ(code, static_cast<uint8_t>(protocol::CommandError::kUnknownParam));
+  EXPECT_EQ(statuses, 2) << "boot + requested";
+  // The new period applies: 2 us of processing now overruns a 1 ms frame only if > 1000 us.
+  clock_.step_us = 600;
+  camera_.AddRegular(3, 33333);
+  loop_->RunUntilFinished();
+  EXPECT_EQ(loop_->status().deadline_overruns, 3u);
+  EXPECT_EQ(loop_->status().rx_errors, 1u);
+}
+
+}  // namespace
+}  // namespace bv::fw
