@@ -46,6 +46,22 @@ TEST(ColorLutTest, ClassifyReadsTheTable) {
   EXPECT_STREQ(ColorClassName(ColorClass::kObstacle), "obstacle");
 }
 
+TEST(ColorLutTest, PackedCellsAreIndependent) {
+  // Two cells share a byte; setting one must never change its neighbour.
+  auto lut = std::make_unique<ColorLut>();
+  lut->Fill(ColorClass::kField);
+  lut->Set(10, ColorClass::kBall);
+  lut->Set(13, ColorClass::kObstacle);
+  EXPECT_EQ(lut->at(10), ColorClass::kBall);
+  EXPECT_EQ(lut->at(11), ColorClass::kField);
+  EXPECT_EQ(lut->at(12), ColorClass::kField);
+  EXPECT_EQ(lut->at(13), ColorClass::kObstacle);
+  lut->Set(10, ColorClass::kUnknown);
+  EXPECT_EQ(lut->at(10), ColorClass::kUnknown);
+  EXPECT_EQ(lut->at(11), ColorClass::kField);
+  EXPECT_LE(sizeof(ColorLut), 32u * 1024u);
+}
+
 TEST(ColorLutTest, BlobRoundTrip) {
   auto lut = Pattern();
   std::vector<uint8_t> blob(kColorLutBlobBytes);
@@ -54,7 +70,7 @@ TEST(ColorLutTest, BlobRoundTrip) {
   EXPECT_EQ(*n, kColorLutBlobBytes);
   auto back = std::make_unique<ColorLut>();
   ASSERT_TRUE(ParseLut(blob, *back).ok());
-  EXPECT_EQ(std::memcmp(back->table().data(), lut->table().data(), ColorLut::kEntries), 0);
+  for (uint32_t i = 0; i < ColorLut::kEntries; ++i) ASSERT_EQ(back->at(i), lut->at(i)) << i;
   EXPECT_EQ(back->Id(), lut->Id());
   std::vector<uint8_t> small(kColorLutBlobBytes - 1);
   EXPECT_EQ(SerializeLut(*lut, small).status().code(), StatusCode::kResourceExhausted);

@@ -24,9 +24,32 @@ const char* ColorClassName(ColorClass c) {
   return "invalid";
 }
 
-void ColorLut::Fill(ColorClass c) { std::memset(table_, static_cast<uint8_t>(c), kEntries); }
+void ColorLut::Fill(ColorClass c) {
+  const auto v = static_cast<uint8_t>(c);
+  std::memset(packed_, v | (v << 4), sizeof packed_);
+}
 
-uint32_t ColorLut::Id() const { return Crc32(table()); }
+void ColorLut::CopyEntries(uint32_t first, std::span<uint8_t> out) const {
+  for (size_t i = 0; i < out.size(); ++i) {
+    out[i] = static_cast<uint8_t>(at(first + static_cast<uint32_t>(i)));
+  }
+}
+
+namespace {
+
+// CRC of the one-byte-per-cell table, unpacked in small chunks (no 64 KB copy).
+uint32_t EntriesCrc(uint32_t crc, const ColorLut& lut) {
+  uint8_t chunk[256];
+  for (uint32_t i = 0; i < ColorLut::kEntries; i += sizeof chunk) {
+    lut.CopyEntries(i, chunk);
+    crc = Crc32Update(crc, chunk);
+  }
+  return crc;
+}
+
+}  // namespace
+
+uint32_t ColorLut::Id() const { return EntriesCrc(0, *this); }
 
 Result<size_t> SerializeLut(const ColorLut& lut, std::span<uint8_t> out) {
   if (out.size() < kColorLutBlobBytes) {
@@ -36,7 +59,7 @@ Result<size_t> SerializeLut(const ColorLut& lut, std::span<uint8_t> out) {
   // Header written by hand (not WriteBlob) so the 64 KB payload needs no scratch copy.
   const uint8_t layout[4] = {ColorLut::kYBits, ColorLut::kUBits, ColorLut::kVBits,
                              kColorClassCount};
-  const uint32_t crc = Crc32Update(Crc32Update(0, layout), lut.table());
+  const uint32_t crc = EntriesCrc(Crc32Update(0, layout), lut);
   ByteWriter w(out);
   w.U32(kBlobMagic);
   w.U16(static_cast<uint16_t>(BlobKind::kColorLut));
@@ -44,7 +67,11 @@ Result<size_t> SerializeLut(const ColorLut& lut, std::span<uint8_t> out) {
   w.U32(static_cast<uint32_t>(kColorLutPayloadBytes));
   w.U32(crc);
   w.Bytes(layout);
-  w.Bytes(lut.table());
+  uint8_t chunk[256];
+  for (uint32_t i = 0; i < ColorLut::kEntries; i += sizeof chunk) {
+    lut.CopyEntries(i, chunk);
+    w.Bytes(chunk);
+  }
   BV_TRY(w.status());
   return w.size();
 }

@@ -1,8 +1,9 @@
 #pragma once
 // Colour classification by lookup table on YUV 4:2:2 pixels.
-// Layout: one byte per cell of a 3D table indexed by Y>>4, U>>2, V>>2 (4/6/6 bits, as SSL-Vision's
-// default): 16 x 64 x 64 = 65536 bytes. Classify() is a shift/or and one load. See README.md for
-// why this layout (vs CMVision bitmasks or a 2D UV table) was chosen.
+// Layout: a 3D table indexed by Y>>4, U>>2, V>>2 (4/6/6 bits, as SSL-Vision's default):
+// 16 x 64 x 64 = 65536 cells, one 4-bit class per cell, two cells per byte = 32 KB of RAM (the
+// blob keeps one byte per cell). Classify() is a shift/or, one load and a nibble select. See
+// README.md for why this layout (vs CMVision bitmasks or a 2D UV table) was chosen.
 #include <cstddef>
 #include <cstdint>
 #include <span>
@@ -42,20 +43,25 @@ class ColorLut {
                              (1 << (7 - kVBits)));
   }
 
-  ColorClass Classify(uint8_t y, uint8_t u, uint8_t v) const {
-    return static_cast<ColorClass>(table_[Index(y, u, v)]);
+  ColorClass Classify(uint8_t y, uint8_t u, uint8_t v) const { return at(Index(y, u, v)); }
+  ColorClass at(uint32_t index) const {
+    return static_cast<ColorClass>((packed_[index >> 1] >> ((index & 1u) << 2)) & 0x0Fu);
   }
-  ColorClass at(uint32_t index) const { return static_cast<ColorClass>(table_[index]); }
-  void Set(uint32_t index, ColorClass c) { table_[index] = static_cast<uint8_t>(c); }
+  void Set(uint32_t index, ColorClass c) {
+    const unsigned shift = (index & 1u) << 2;
+    uint8_t& b = packed_[index >> 1];
+    b = static_cast<uint8_t>((b & ~(0x0Fu << shift)) | (static_cast<unsigned>(c) << shift));
+  }
   void Fill(ColorClass c);
-  std::span<const uint8_t, kEntries> table() const {
-    return std::span<const uint8_t, kEntries>(table_);
-  }
-  /// CRC-32 of the table (RigCalibration::lut_id).
+  /// Unpacks entries [first, first + out.size()) one byte per cell (blob layout).
+  void CopyEntries(uint32_t first, std::span<uint8_t> out) const;
+  /// CRC-32 of the table, one byte per cell (RigCalibration::lut_id).
   uint32_t Id() const;
 
  private:
-  uint8_t table_[kEntries] = {};
+  // 4 bits per cell halve the RAM (the 128 KB budget); classes fit in 4 bits.
+  static_assert(kColorClassCount <= 16);
+  uint8_t packed_[kEntries / 2] = {};
 };
 
 // --- the device blob (BlobKind::kColorLut) ---
