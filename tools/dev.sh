@@ -55,7 +55,7 @@ case "${1:-}" in
       echo "== build $p"
       build_preset "$p"
     done
-    for p in host host-sanitize fw-qemu fuzz; do
+    for p in host host-sanitize fw-qemu fw-stm32h7 fuzz; do
       echo "== test $p"
       ctest --preset "$p"
     done
