@@ -38,3 +38,12 @@ if echo "$pipe" | grep -q 'intervals=0 '; then
   echo "      BV_FW_LUT_BLOB); the loop figure then covers the no-calibration path only"
 fi
 echo "budget (DESIGN.md §5): <= 1500000 instructions per frame pair, full pipeline"
+# Latency from "pair complete and handed out by the camera" (bv_pair_begin) to "last byte of the
+# ball-state packet queued for the UART" (bv_pair_end). -icount shift=0 runs 1 instruction per
+# virtual ns; on the STM32H743 at 480 MHz it is instructions / 480 per us at IPC 1 (the M7
+# dual-issues, caches and flash wait states move it either way: an estimate, not a measurement).
+mean=$(echo "$pair" | sed -n 's/.*mean=\([0-9]*\).*/\1/p')
+max=$(echo "$pair" | sed -n 's/.*max=\([0-9]*\).*/\1/p')
+if [ -n "$mean" ] && [ -n "$max" ]; then
+  awk -v m="$mean" -v x="$max" 'BEGIN { printf "latency frame complete -> last packet byte to UART: mean %.0f us, max %.0f us (QEMU virtual time); STM32H743 @ 480 MHz, IPC 1: mean %.2f ms, max %.2f ms\n", m / 1000, x / 1000, m / 480000, x / 480000 }'
+fi
