@@ -31,13 +31,22 @@ run() {  # $1 output file, $2 input file (or empty)
   [ -n "$reader" ] && wait "$reader"
   [ $rc -eq 0 ] || { cat "$work/qemu.err"; fail "QEMU exited with $rc"; }
 }
-run "$work/reference.bin" ""
-"$py" "$here/make_commands.py" "$work/reference.bin" "$work/commands.bin" || fail "make_commands"
+repo=$(cd "$here/../.." && pwd)
+"$bv" calib to-blob "$repo/host_tests/data/reference_rig_calib.json" "$work/cal.bin" > /dev/null ||
+  fail "calib to-blob"
+"$py" "$here/make_commands.py" "$work/commands.bin" "$work/cal.bin" || fail "make_commands"
+chunks=$(( ($(stat -c %s "$work/cal.bin") + 511) / 512 ))
+replies=$(( 2 + 1 + chunks + 1 ))  # two parameters, upload begin, chunks, commit
 run "$work/uart.bin" "$work/commands.bin"
 "$bv" listen "$work/uart.bin" --csv "$work/states.csv" --status-csv "$work/status.csv" --quiet \
   > "$work/listen.out" 2>&1 || { cat "$work/listen.out"; fail "nothing decoded"; }
 cat "$work/listen.out"
-grep -q 'ball_states=3 status=3 other=2 ' "$work/listen.out" ||
-  fail "expected 3 ball states, 3 status packets (boot, requested, final) and 2 replies"
+grep -q "ball_states=3 status=3 other=$replies " "$work/listen.out" ||
+  fail "expected 3 ball states, 3 status packets (boot, requested, final) and $replies replies"
 grep -q 'decoder_errors=0 ' "$work/listen.out" || fail "decoder errors"
-echo "PASS: commands received over UART0 and answered"
+# Booted without calibration; the uploaded one must be active at the end.
+hdr=$(head -1 "$work/status.csv")
+col() { local i; i=$(echo "$hdr" | tr , '\n' | grep -nx "$1" | cut -d: -f1); sed -n "$2p" "$work/status.csv" | cut -d, -f"$i"; }
+[ "$(col calibration_state 2)" = 1 ] || fail "boot status should report the calibration missing"
+[ "$(col calibration_state 4)" = 0 ] || fail "uploaded calibration not active at the end"
+echo "PASS: commands and a $chunks-chunk calibration upload received over UART0 and answered"

@@ -63,3 +63,15 @@ class ProtocolTest(unittest.TestCase):
 
 if __name__ == "__main__":
     unittest.main()
+
+
+class CommandsTest(unittest.TestCase):
+    def test_upload_frames_decode_in_order(self):
+        from ballvision_link import commands
+        blob = bytes(range(256)) * 5
+        frames = commands.upload(10, commands.TARGET_LUT, blob)
+        self.assertEqual(len(frames), 1 + 3 + 1)
+        msgs = list(Decoder().feed(b"".join(frames)))
+        self.assertEqual([m[0] for m in msgs], [0x22, 0x23, 0x23, 0x23, 0x24])
+        self.assertEqual([m[1] for m in msgs], list(range(10, 15)))
+        self.assertEqual(b"".join(m[2][5:] for m in msgs[1:4]), blob)
