@@ -7,14 +7,6 @@
 #include "hal/qemu_mps2/semihosting.h"
 
 extern "C" {
-extern uint32_t __stack_top;
-extern uint32_t __data_load;
-extern uint32_t __data_start;
-extern uint32_t __data_end;
-extern uint32_t __bss_start;
-extern uint32_t __bss_end;
-extern void (*__init_array_start[])();
-extern void (*__init_array_end[])();
 int main();
 [[noreturn]] void Reset_Handler();
 [[noreturn]] void Fault_Handler();
@@ -86,19 +78,10 @@ extern "C" __attribute__((section(".vectors"), used)) const Vector g_vectors[16 
 
 extern "C" void Reset_Handler() {
   using namespace bv::qemu;
-  // FPU first: any FP instruction before this faults (CP10/CP11 full access).
-  kScb->CPACR = kScb->CPACR | (0xFu << 20);
-  asm volatile("dsb\n isb" ::: "memory");
-  kScb->SHCSR = kScb->SHCSR | (7u << 16);  // separate MemManage/BusFault/UsageFault
-  kScb->CCR = kScb->CCR | (1u << 4);       // trap divide by zero
+  bv::cm7::EnableFpuAndFaultTraps();
 
-  const size_t data_bytes = static_cast<size_t>(reinterpret_cast<uint8_t*>(&__data_end) -
-                                                reinterpret_cast<uint8_t*>(&__data_start));
-  std::memcpy(&__data_start, &__data_load, data_bytes);
-  const size_t bss_bytes = static_cast<size_t>(reinterpret_cast<uint8_t*>(&__bss_end) -
-                                               reinterpret_cast<uint8_t*>(&__bss_start));
-  std::memset(&__bss_start, 0, bss_bytes);
-  for (auto** f = __init_array_start; f < __init_array_end; ++f) (*f)();
+  bv::cm7::InitDataAndBss();
+  bv::cm7::RunConstructors();
 
   SemiExit(main());
 }

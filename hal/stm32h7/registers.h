@@ -5,70 +5,17 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "hal/cortex_m/cortex_m7.h"
+
 namespace bv::h7 {
 
-#define BV_RW volatile uint32_t
-#define BV_RO const volatile uint32_t
+using cm7::CacheIdRegs;
+using cm7::kCacheId;
+using cm7::kNvic;
+using cm7::kScb;
+using cm7::NvicRegs;
+using cm7::ScbRegs;
 
-struct ScbRegs {  // 0xE000ED00
-  BV_RO CPUID;
-  BV_RW ICSR;
-  BV_RW VTOR;
-  BV_RW AIRCR;
-  BV_RW SCR;
-  BV_RW CCR;  // bit16 DC, bit17 IC
-  volatile uint8_t SHPR[12];
-  BV_RW SHCSR;
-  BV_RW CFSR;
-  BV_RW HFSR;
-  BV_RW DFSR;
-  BV_RW MMFAR;
-  BV_RW BFAR;
-  BV_RW AFSR;
-  uint32_t reserved0[18];
-  BV_RW CPACR;  // 0x88
-  uint32_t reserved1[113];
-  BV_RW ICIALLU;  // 0x250
-  uint32_t reserved2[1];
-  BV_RW ICIMVAU;
-  BV_RW DCIMVAC;  // 0x25C invalidate by address
-  BV_RW DCISW;    // 0x260
-  BV_RW DCCMVAU;
-  BV_RW DCCMVAC;  // 0x268 clean by address
-  BV_RW DCCSW;
-  BV_RW DCCIMVAC;  // 0x270 clean+invalidate by address
-  BV_RW DCCISW;
-};
-static_assert(offsetof(ScbRegs, CPACR) == 0x88);
-static_assert(offsetof(ScbRegs, ICIALLU) == 0x250);
-static_assert(offsetof(ScbRegs, DCIMVAC) == 0x25C);
-static_assert(offsetof(ScbRegs, DCCIMVAC) == 0x270);
-
-struct CacheIdRegs {  // 0xE000ED78: CLIDR, CTR, CCSIDR, CSSELR
-  BV_RO CLIDR;
-  BV_RO CTR;
-  BV_RO CCSIDR;
-  BV_RW CSSELR;
-};
-
-struct SysTickRegs {
-  BV_RW CSR;
-  BV_RW RVR;
-  BV_RW CVR;
-  BV_RO CALIB;
-};
-
-struct NvicRegs {  // 0xE000E100
-  BV_RW ISER[8];
-  uint32_t reserved0[24];
-  BV_RW ICER[8];
-  uint32_t reserved1[24];
-  BV_RW ISPR[8];
-  uint32_t reserved2[24];
-  BV_RW ICPR[8];
-  uint32_t reserved3[88];
-  volatile uint8_t IPR[240];
-};
 static_assert(offsetof(NvicRegs, IPR) == 0x300);
 
 struct ItmRegs {  // 0xE0000000: stimulus port 0 is the debug log (SWO), if a probe enabled it
@@ -272,9 +219,6 @@ template <typename T>
 inline T* Reg(uintptr_t address) {
   return reinterpret_cast<T*>(address);
 }
-inline ScbRegs* const kScb = Reg<ScbRegs>(0xE000ED00u);
-inline CacheIdRegs* const kCacheId = Reg<CacheIdRegs>(0xE000ED78u);
-inline NvicRegs* const kNvic = Reg<NvicRegs>(0xE000E100u);
 inline ItmRegs* const kItm = Reg<ItmRegs>(0xE0000000u);
 inline RccRegs* const kRcc = Reg<RccRegs>(0x58024400u);
 inline PwrRegs* const kPwr = Reg<PwrRegs>(0x58024800u);

@@ -7,14 +7,6 @@
 #include "hal/stm32h7/system.h"
 
 extern "C" {
-extern uint32_t __stack_top;
-extern uint32_t __data_load;
-extern uint32_t __data_start;
-extern uint32_t __data_end;
-extern uint32_t __bss_start;
-extern uint32_t __bss_end;
-extern void (*__init_array_start[])();
-extern void (*__init_array_end[])();
 int main();
 [[noreturn]] void Reset_Handler();
 void Fault_Handler();
@@ -87,19 +79,11 @@ extern "C" __attribute__((section(".vectors"), used)) const VectorTable g_vector
 
 extern "C" void Reset_Handler() {
   using namespace bv::h7;
-  kScb->CPACR = kScb->CPACR | (0xFu << 20);  // FPU before any FP instruction
-  asm volatile("dsb\n isb" ::: "memory");
+  bv::cm7::EnableFpuAndFaultTraps();
   kScb->VTOR = reinterpret_cast<uint32_t>(&g_vectors);
-  kScb->SHCSR = kScb->SHCSR | (7u << 16);
-  kScb->CCR = kScb->CCR | (1u << 4);  // trap divide by zero
 
   ClockTreeInit();
-  const size_t data_bytes = static_cast<size_t>(reinterpret_cast<uint8_t*>(&__data_end) -
-                                                reinterpret_cast<uint8_t*>(&__data_start));
-  std::memcpy(&__data_start, &__data_load, data_bytes);
-  const size_t bss_bytes = static_cast<size_t>(reinterpret_cast<uint8_t*>(&__bss_end) -
-                                               reinterpret_cast<uint8_t*>(&__bss_start));
-  std::memset(&__bss_start, 0, bss_bytes);
+  bv::cm7::InitDataAndBss();
 
   // Caches on: I-cache, then D-cache (invalidated by set/way first). DMA buffers are kept
   // coherent by the drivers with clean/invalidate by address.
@@ -119,7 +103,7 @@ extern "C" void Reset_Handler() {
   kScb->CCR = kScb->CCR | (1u << 16);
   asm volatile("dsb\n isb" ::: "memory");
 
-  for (auto** f = __init_array_start; f < __init_array_end; ++f) (*f)();
+  bv::cm7::RunConstructors();
   main();
   SystemReset();
 }
