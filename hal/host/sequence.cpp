@@ -2,6 +2,7 @@
 
 #include <png.h>
 
+#include <sys/stat.h>
 #include <algorithm>
 #include <cerrno>
 #include <cstdio>
@@ -12,7 +13,6 @@
 #include <memory>
 #include <set>
 #include <sstream>
-#include <sys/stat.h>
 
 namespace bv::host {
 namespace {
@@ -27,21 +27,6 @@ bool EndsWith(const std::string& s, const char* suffix) {
   if (s.size() < n) return false;
   return std::equal(s.end() - static_cast<ptrdiff_t>(n), s.end(), suffix,
                     [](char a, char b) { return std::tolower(a) == std::tolower(b); });
-}
-
-std::vector<std::string> SplitCsv(const std::string& line) {
-  std::vector<std::string> out;
-  std::string cur;
-  for (char c : line) {
-    if (c == ',') {
-      out.push_back(cur);
-      cur.clear();
-    } else if (c != '\r') {
-      cur.push_back(c);
-    }
-  }
-  out.push_back(cur);
-  return out;
 }
 
 bool ParseInt(const std::string& s, long long& v) {
@@ -82,6 +67,21 @@ bool DecodePng(const std::string& path, const uint8_t* data, size_t size, std::v
 }
 
 }  // namespace
+
+std::vector<std::string> SplitCsvLine(const std::string& line) {
+  std::vector<std::string> out;
+  std::string cur;
+  for (char c : line) {
+    if (c == ',') {
+      out.push_back(cur);
+      cur.clear();
+    } else if (c != '\r') {
+      cur.push_back(c);
+    }
+  }
+  out.push_back(cur);
+  return out;
+}
 
 void RgbToYuyv(const uint8_t* rgb, int width, int height, uint8_t* yuyv) {
   // BT.601 full range, fixed point (x256); chroma averaged over the horizontal pair.
@@ -219,7 +219,7 @@ bool ParseSequenceIndex(const std::string& text, const std::string& dir, bool ch
     error = csv + ": empty file";
     return false;
   }
-  const auto header = SplitCsv(line);
+  const auto header = SplitCsvLine(line);
   int col_index = -1, col_t = -1, col_omni = -1, col_persp = -1;
   for (size_t i = 0; i < header.size(); ++i) {
     if (header[i] == "index") col_index = static_cast<int>(i);
@@ -237,7 +237,7 @@ bool ParseSequenceIndex(const std::string& text, const std::string& dir, bool ch
   while (std::getline(f, line)) {
     ++lineno;
     if (line.empty() || line == "\r") continue;
-    const auto cols = SplitCsv(line);
+    const auto cols = SplitCsvLine(line);
     const std::string where = csv + ":" + std::to_string(lineno) + ": ";
     if (cols.size() != ncols) {
       error = where + "has " + std::to_string(cols.size()) + " columns, header has " +

@@ -13,7 +13,7 @@ namespace bv::host {
 struct SequenceEntry {
   int64_t index = 0;
   uint64_t t_us = 0;
-  std::string omni_path;   // absolute or relative to the cwd; empty when that camera has no frame
+  std::string omni_path;  // absolute or relative to the cwd; empty when that camera has no frame
   std::string persp_path;
 };
 
@@ -21,6 +21,10 @@ struct Sequence {
   std::string dir;
   std::vector<SequenceEntry> entries;
 };
+
+/// Splits one CSV line at commas (no quoting: none of our files need it); a trailing '\r' is
+/// dropped, empty fields are kept ("a,,b," gives 4 fields).
+std::vector<std::string> SplitCsvLine(const std::string& line);
 
 /// Reads and validates DIR/frames.csv. On error returns false and sets `error` to a message
 /// naming the file, the line and what was wrong (bad header, missing column, non-numeric or

@@ -262,6 +262,17 @@ bool ReadFileBytes(const std::string& path, std::vector<uint8_t>& bytes, std::st
   return true;
 }
 
+bool ReadJsonFile(const std::string& path, json& out, std::string& error) {
+  std::vector<uint8_t> bytes;
+  if (!ReadFileBytes(path, bytes, error)) return false;
+  out = json::parse(bytes.begin(), bytes.end(), nullptr, /*allow_exceptions=*/false);
+  if (out.is_discarded()) {
+    error = path + ": not valid JSON";
+    return false;
+  }
+  return true;
+}
+
 bool WriteFileBytes(const std::string& path, const std::vector<uint8_t>& bytes,
                     std::string& error) {
   // Write to a temporary name and rename, so a failed write never leaves half a file.

@@ -47,6 +47,8 @@ bool UpdateCalibrationSection(const std::string& path, const std::string& sectio
                               const nlohmann::json& value, std::string& error);
 
 bool ReadFileBytes(const std::string& path, std::vector<uint8_t>& bytes, std::string& error);
+/// Reads and parses a JSON file; the error names the file (cannot open / not valid JSON).
+bool ReadJsonFile(const std::string& path, nlohmann::json& out, std::string& error);
 bool WriteFileBytes(const std::string& path, const std::vector<uint8_t>& bytes, std::string& error);
 
 }  // namespace bv::cli

@@ -162,14 +162,8 @@ struct Carpet {
 };
 
 bool LoadCarpet(const std::string& path, Carpet& c, std::string& error) {
-  std::ifstream f(path);
-  if (!f) {
-    error = "cannot open " + path;
-    return false;
-  }
-  std::stringstream ss;
-  ss << f.rdbuf();
-  const json j = json::parse(ss.str(), nullptr, false);
+  json j;
+  if (!ReadJsonFile(path, j, error)) return false;
   if (j.is_discarded() || !j.contains("edges_m") || !j.contains("colors") ||
       !j.contains("frames")) {
     error = path + ": needs edges_m, colors and frames";

@@ -37,16 +37,6 @@ void PerspUsage() {
                "  corners.csv: image,corner,X,Y,u,v,in_image (board-plane X, Y)\n");
 }
 
-std::vector<std::string> SplitCsv(std::string line) {
-  while (!line.empty() && (line.back() == '\r' || line.back() == '\n')) line.pop_back();
-  std::vector<std::string> out;
-  std::stringstream ss(line);
-  std::string cell;
-  while (std::getline(ss, cell, ',')) out.push_back(cell);
-  if (!line.empty() && line.back() == ',') out.emplace_back();
-  return out;
-}
-
 bool ParseDouble(const std::string& s, double& v) {
   char* end = nullptr;
   v = std::strtod(s.c_str(), &end);
@@ -61,7 +51,7 @@ bool LoadCornersCsv(const std::string& path, std::vector<ZhangView>& views, std:
   }
   std::string line;
   std::getline(f, line);
-  const auto header = SplitCsv(line);
+  const auto header = host::SplitCsvLine(line);
   std::map<std::string, int> col;
   for (size_t i = 0; i < header.size(); ++i) col[header[i]] = static_cast<int>(i);
   for (const char* need : {"image", "X", "Y", "u", "v"}) {
@@ -75,7 +65,7 @@ bool LoadCornersCsv(const std::string& path, std::vector<ZhangView>& views, std:
   while (std::getline(f, line)) {
     ++line_no;
     if (line.empty()) continue;
-    const auto c = SplitCsv(line);
+    const auto c = host::SplitCsvLine(line);
     if (c.size() < header.size()) {
       error = path + ":" + std::to_string(line_no) + ": too few columns";
       return false;
@@ -126,7 +116,7 @@ bool DetectImages(const std::string& dir, const std::string& prefix, int nx, int
     std::ifstream f(fs::path(dir) / "frames.csv");
     std::string line;
     std::getline(f, line);
-    const auto header = SplitCsv(line);
+    const auto header = host::SplitCsvLine(line);
     int pc = -1;
     for (size_t i = 0; i < header.size(); ++i)
       if (header[i] == "persp_file") pc = static_cast<int>(i);
@@ -135,7 +125,7 @@ bool DetectImages(const std::string& dir, const std::string& prefix, int nx, int
       return false;
     }
     while (std::getline(f, line)) {
-      const auto c = SplitCsv(line);
+      const auto c = host::SplitCsvLine(line);
       if (static_cast<int>(c.size()) > pc && !c[pc].empty()) {
         files.emplace_back(c[pc], (fs::path(dir) / c[pc]).string());
       }
@@ -208,14 +198,8 @@ bool DetectImages(const std::string& dir, const std::string& prefix, int nx, int
 
 bool LoadPoses(const std::string& path, const std::vector<ZhangView>& views,
                std::vector<BoardPose>& poses, std::string& error) {
-  std::ifstream f(path);
-  if (!f) {
-    error = "cannot open " + path;
-    return false;
-  }
-  std::stringstream ss;
-  ss << f.rdbuf();
-  const json j = json::parse(ss.str(), nullptr, false);
+  json j;
+  if (!ReadJsonFile(path, j, error)) return false;
   if (j.is_discarded() || !j.contains("poses") || !j["poses"].is_array()) {
     error = path + ": expected {\"poses\": [{\"image\", \"R\", \"t\"}]}";
     return false;

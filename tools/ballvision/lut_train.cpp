@@ -207,15 +207,6 @@ ColorLut Trainer::Build() const {
 
 namespace {
 
-std::vector<std::string> SplitCsv(const std::string& line) {
-  std::vector<std::string> f;
-  std::stringstream ss(line);
-  std::string x;
-  while (std::getline(ss, x, ',')) f.push_back(x);
-  if (!line.empty() && line.back() == ',') f.push_back("");
-  return f;
-}
-
 float ToF(const std::string& s) { return s.empty() ? 0.0f : std::strtof(s.c_str(), nullptr); }
 
 }  // namespace
@@ -228,7 +219,7 @@ bool LoadSimTruth(const std::string& dir, std::vector<SimTruth>& out, std::strin
   }
   std::string line;
   std::getline(in, line);
-  const auto header = SplitCsv(line);
+  const auto header = host::SplitCsvLine(line);
   std::map<std::string, size_t> col;
   for (size_t i = 0; i < header.size(); ++i) col[header[i]] = i;
   const char* cams[2] = {"omni", "persp"};
@@ -241,7 +232,7 @@ bool LoadSimTruth(const std::string& dir, std::vector<SimTruth>& out, std::strin
   out.clear();
   while (std::getline(in, line)) {
     if (line.empty()) continue;
-    const auto f = SplitCsv(line);
+    const auto f = host::SplitCsvLine(line);
     if (f.size() < header.size()) {
       error = dir + "/truth.csv: short row";
       return false;

@@ -10,6 +10,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "hal/host/sequence.h"
 #include "tools/ballvision/calib_io.h"
 
 namespace bv::cli {
@@ -201,29 +202,15 @@ bool ReadCsv(const std::string& path, CsvTable& out, std::string& error) {
     error = path + ": cannot open";
     return false;
   }
-  auto split = [](const std::string& line) {
-    std::vector<std::string> f;
-    std::string cur;
-    for (char ch : line) {
-      if (ch == ',') {
-        f.push_back(cur);
-        cur.clear();
-      } else if (ch != '\r') {
-        cur += ch;
-      }
-    }
-    f.push_back(cur);
-    return f;
-  };
   std::string line;
   if (!std::getline(in, line)) {
     error = path + ": empty";
     return false;
   }
-  out.header = split(line);
+  out.header = host::SplitCsvLine(line);
   while (std::getline(in, line)) {
     if (line.empty()) continue;
-    const auto f = split(line);
+    const auto f = host::SplitCsvLine(line);
     std::map<std::string, std::string> row;
     for (size_t i = 0; i < out.header.size() && i < f.size(); ++i) row[out.header[i]] = f[i];
     out.rows.push_back(std::move(row));
