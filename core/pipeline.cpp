@@ -69,7 +69,54 @@ Result<Ray> OmniRay(const OmniCalibration& cal, float u_px, float v_px) {
   return out;
 }
 
+BallFinderConfig WithField(BallFinderConfig config, InFieldFn fn, void* self) {
+  config.in_field = fn;
+  config.in_field_context = self;
+  return config;
+}
+
 }  // namespace
+
+Status Pipeline::SetRobotPose(const RobotPose& pose) {
+  if (!std::isfinite(pose.x_m) || !std::isfinite(pose.y_m) || !std::isfinite(pose.heading_rad)) {
+    return Status(StatusCode::kInvalidArgument, "pipeline: robot pose not finite");
+  }
+  pose_ = pose;
+  return Status();
+}
+
+bool Pipeline::InField(float x_m, float y_m) const {
+  if (!pose_.known) return true;
+  // Robot +x is (sin h, -cos h) in the field, robot +y is (cos h, sin h).
+  const float s = std::sin(pose_.heading_rad), c = std::cos(pose_.heading_rad);
+  const float fx = pose_.x_m + x_m * s + y_m * c;
+  const float fy = pose_.y_m - x_m * c + y_m * s;
+  const FieldConfig& f = config_.field;
+  return std::fabs(fx) <= f.half_length_m + f.margin_m &&
+         std::fabs(fy) <= f.half_width_m + f.margin_m;
+}
+
+bool Pipeline::OmniInField(void* self, float u_px, float v_px) {
+  const auto* p = static_cast<const Pipeline*>(self);
+  if (!p->pose_.known) return true;
+  float x = 0, y = 0;
+  // Beyond the distance map the floor point is unknown: no verdict, not "outside".
+  if (!OmniPixelToGround(p->calibration_->omni, u_px, v_px, x, y).ok()) return true;
+  return p->InField(x, y);
+}
+
+bool Pipeline::PerspInField(void* self, float u_px, float v_px) {
+  const auto* p = static_cast<const Pipeline*>(self);
+  if (!p->pose_.known) return true;
+  const Result<Ray> ray = PerspPixelToRay(p->calibration_->persp, u_px, v_px);
+  if (!ray.ok()) return true;
+  // The ray meets the plane of a ball centre on the floor only if it points down enough.
+  const float dz = ray->dir.z();
+  const float h = p->calibration_->ball_radius_m - ray->origin.z();
+  if (dz > -1e-3f) return true;
+  const float t = h / dz;
+  return p->InField(ray->origin.x() + t * ray->dir.x(), ray->origin.y() + t * ray->dir.y());
+}
 
 Status Pipeline::Init(const RigCalibration& calibration, const ColorLut& lut,
                       const PipelineConfig& config) {
@@ -86,12 +133,16 @@ Status Pipeline::Init(const RigCalibration& calibration, const ColorLut& lut,
         ReferenceOmniScanConfig(calibration.omni.center_u, calibration.omni.center_v);
     omni_outer_radius_px_ = scan.outer_radius_px;
     BV_TRY(omni_scan_.BuildOmni(scan, kFrameWidth, kFrameHeight));
-    BV_TRY(omni_finder_.Init(omni_scan_, config_.finder));
+    BallFinderConfig finder = config_.finder;
+    if (finder.in_field == nullptr) finder = WithField(finder, &Pipeline::OmniInField, this);
+    BV_TRY(omni_finder_.Init(omni_scan_, finder));
   }
   if (calibration.persp.valid) {
     BV_TRY(persp_scan_.BuildPersp(ReferencePerspScanConfig(), calibration.persp.width_px,
                                   calibration.persp.height_px));
-    BV_TRY(persp_finder_.Init(persp_scan_, config_.finder));
+    BallFinderConfig finder = config_.finder;
+    if (finder.in_field == nullptr) finder = WithField(finder, &Pipeline::PerspInField, this);
+    BV_TRY(persp_finder_.Init(persp_scan_, finder));
   }
   filter_.Configure(config_.filter);
   stats_ = PipelineStats{};

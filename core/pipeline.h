@@ -18,12 +18,28 @@ namespace bv {
 
 class ColorLut;
 
+/// The playing field, for the ball choice's "inside the field" rule (paper IV-A): a region whose
+/// ground point lies inside is favoured over one outside (a red shirt behind the goal line).
+struct FieldConfig {
+  float half_length_m = 9.0f;  // MSL field 18 x 12 m
+  float half_width_m = 6.0f;
+  float margin_m = 0.3f;  // a ball on or just over the line still counts as inside
+};
+
+/// The robot's pose in the field, from the main computer's self-localisation. Field frame:
+/// origin at the centre spot, metres; heading = field angle (CCW from +X) of the robot's +y.
+struct RobotPose {
+  bool known = false;  // without a pose there is no field test
+  float x_m = 0, y_m = 0, heading_rad = 0;
+};
+
 struct PipelineConfig {
   uint32_t predict_ahead_us = 200000;  // actuation latency covered by px/py/pz
   BallFilterConfig filter;
   TriangulationConfig triangulation;
   float max_ray_gap_m = 0.4f;  // larger: the two detections are not the same ball
   BallFinderConfig finder;     // ball choice and attention (core/detect), both cameras
+  FieldConfig field;
 };
 
 struct FrameInput {
@@ -80,9 +96,18 @@ class Pipeline {
   /// The predicted image positions used for the last frame (annotation, tests).
   const ImagePrediction& omni_prediction() const { return pred_omni_; }
   const ImagePrediction& persp_prediction() const { return pred_persp_; }
+  /// Updates the robot's field pose (takes effect from the next frame). Non-finite values are
+  /// refused with kInvalidArgument and the old pose kept.
+  Status SetRobotPose(const RobotPose& pose);
+  const RobotPose& robot_pose() const { return pose_; }
+  /// True if the robot-frame floor point is inside the field, or if that cannot be told (no pose).
+  bool InField(float x_m, float y_m) const;
 
  private:
   BallDetection Detect(BallFinder& finder, const YuyvImage& img, const ImagePrediction& pred);
+  // BallFinder field predicates: image point -> floor point (ball centre height) -> field test.
+  static bool OmniInField(void* self, float u_px, float v_px);
+  static bool PerspInField(void* self, float u_px, float v_px);
   void Predict(uint64_t t_us);
 
   const RigCalibration* calibration_ = nullptr;
@@ -97,6 +122,7 @@ class Pipeline {
   ImagePrediction pred_omni_, pred_persp_;
   MeasurementInfo meas_;
   float omni_outer_radius_px_ = 1e9f;  // mirror rim in the image (scan table geometry)
+  RobotPose pose_;
 };
 
 }  // namespace bv

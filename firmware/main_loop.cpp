@@ -183,6 +183,22 @@ Status MainLoop::Params::SetParam(uint16_t id, float value) {
       }
       loop_.config_.status_interval_us = static_cast<uint32_t>(std::lround(value));
       return Status();
+    case kParamRobotFieldX:
+    case kParamRobotFieldY:
+    case kParamRobotHeadingRad:
+    case kParamRobotPoseKnown: {
+      RobotPose pose = loop_.pipeline_.robot_pose();
+      const float limit = id == kParamRobotHeadingRad  ? 10.0f
+                          : id == kParamRobotPoseKnown ? 1.0f
+                                                       : 20.0f;
+      if (!(std::fabs(value) <= limit))
+        return Status(StatusCode::kOutOfRange, "robot pose out of range");
+      if (id == kParamRobotFieldX) pose.x_m = value;
+      if (id == kParamRobotFieldY) pose.y_m = value;
+      if (id == kParamRobotHeadingRad) pose.heading_rad = value;
+      pose.known = id == kParamRobotPoseKnown ? value >= 0.5f : true;
+      return loop_.pipeline_.SetRobotPose(pose);
+    }
     default:
       return Status(StatusCode::kNotFound, "unknown parameter");
   }
@@ -309,6 +325,11 @@ bool MainLoop::Poll() {
   if (status_.last_proc_us > status_.max_proc_us) status_.max_proc_us = status_.last_proc_us;
   if (total_us > config_.frame_period_us) ++status_.deadline_overruns;
   ++status_.frames_processed;
+  if (have_status_exposure_ &&
+      pair.exposure_us >
+          interval_last_exposure_us_ + uint64_t{kTimestampJumpPeriods} * config_.frame_period_us) {
+    status_.fault_flags |= kFaultTimestampJump;  // interval_last_: the previous pair's exposure
+  }
   MaybeSendStatus(pair.exposure_us);
   bv_pair_end();
   return true;

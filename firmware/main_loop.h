@@ -33,6 +33,12 @@ inline constexpr size_t kUploadBufferBytes = 2 * kBlobScratchBytes;
 enum ParamId : uint16_t {
   kParamFramePeriodUs = 1,     // 1000 .. 1000000
   kParamStatusIntervalUs = 2,  // 100000 .. 10000000
+  // The robot's pose in the field from the main computer (ball choice: inside the field).
+  // Setting x, y or heading makes the pose known; kParamRobotPoseKnown = 0 forgets it.
+  kParamRobotFieldX = 10,      // m, |x| <= 20
+  kParamRobotFieldY = 11,      // m, |y| <= 20
+  kParamRobotHeadingRad = 12,  // rad, |h| <= 10
+  kParamRobotPoseKnown = 13,   // 0 or 1
 };
 
 struct MainLoopConfig {
@@ -48,7 +54,13 @@ enum FaultFlags : uint32_t {
   kFaultPipelineNotReady = 1u << 0,  // no usable calibration / LUT: ball states are "not found"
   kFaultCameraBadInput = 1u << 1,    // the camera layer rejected frames (see board counter)
   kFaultCameraStart = 1u << 2,       // Camera::Start failed
+  kFaultTimestampJump = 1u << 3,     // a pair's exposure time jumped forward by more than
+                                     // kTimestampJumpPeriods frame periods (sticky)
 };
+
+/// A forward gap between consecutive pairs' exposure times above this many frame periods is
+/// reported as kFaultTimestampJump (a backward step is kPairOutOfOrder).
+inline constexpr uint32_t kTimestampJumpPeriods = 10;
 
 class MainLoop {
  public:
@@ -79,6 +91,7 @@ class MainLoop {
   uint32_t ball_packets_sent() const { return ball_packets_sent_; }
   uint32_t status_packets_sent() const { return status_packets_sent_; }
   bool pipeline_ready() const { return pipeline_ready_; }
+  const Pipeline& pipeline() const { return pipeline_; }
 
  private:
   protocol::BlobState LoadCalibration();

@@ -482,5 +482,35 @@ TEST_F(MainLoopCommandsTest, ParametersAndStatusRequests) {
   EXPECT_EQ(loop_->status().rx_errors, 1u);
 }
 
+TEST_F(MainLoopCommandsTest, RobotPoseParametersReachThePipeline) {
+  Start();
+  auto set = [&](uint16_t id, float v) {
+    uint8_t p[6];
+    ByteWriter w(p);
+    w.U16(id);
+    w.F32(v);
+    Command(protocol::MsgType::kSetParam, w.written());
+    Drain();
+  };
+  EXPECT_FALSE(loop_->pipeline().robot_pose().known);
+  set(kParamRobotFieldX, 8.2f);
+  set(kParamRobotFieldY, -1.5f);
+  set(kParamRobotHeadingRad, 0.5f);
+  set(kParamRobotFieldX, 1e6f);  // out of range: refused, pose unchanged
+  const RobotPose& pose = loop_->pipeline().robot_pose();
+  EXPECT_TRUE(pose.known);
+  EXPECT_EQ(pose.x_m, 8.2f);
+  EXPECT_EQ(pose.y_m, -1.5f);
+  EXPECT_EQ(pose.heading_rad, 0.5f);
+  int acks, errors, statuses;
+  uint8_t code = 0;
+  Replies(acks, errors, statuses, code);
+  EXPECT_EQ(acks, 3);
+  EXPECT_EQ(errors, 1);
+  EXPECT_EQ(code, static_cast<uint8_t>(protocol::CommandError::kBadValue));
+  set(kParamRobotPoseKnown, 0.f);
+  EXPECT_FALSE(loop_->pipeline().robot_pose().known);
+}
+
 }  // namespace
 }  // namespace bv::fw

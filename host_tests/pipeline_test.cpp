@@ -76,6 +76,44 @@ TEST_F(PipelineTest, StaticBallIsTriangulatedWithinCentimetres) {
   }
 }
 
+// Paper IV-A: with the robot's field pose known, a ball-coloured region inside the field is
+// chosen over a larger one outside (behind the goal line), through the omni image-to-ground map.
+TEST_F(PipelineTest, InsideTheFieldIsFavouredOnceThePoseIsKnown) {
+  const Eigen::Vector3f outside(0.f, 1.2f, 0.11f);  // closer, so larger in the image
+  const Eigen::Vector3f inside(0.f, -2.0f, 0.11f);  // behind the robot, further away
+  std::vector<uint8_t> img_out, img_in, bg, persp;
+  renderer_->Render(outside, 7, img_out, persp);
+  renderer_->Render(inside, 7, img_in, persp);
+  renderer_->Render(Eigen::Vector3f(0.f, 0.f, -5.f), 7, bg, persp);  // no ball: background
+  std::vector<uint8_t> both = img_out;
+  for (size_t i = 0; i < both.size(); ++i) {
+    if (img_in[i] != bg[i]) both[i] = img_in[i];
+  }
+  auto choose = [&](bool pose_known) {
+    RobotPose pose;
+    pose.known = pose_known;
+    pose.x_m = 8.2f;  // facing the +X goal line, 0.8 m in front of it
+    EXPECT_TRUE(pipeline_->SetRobotPose(pose).ok());
+    pipeline_->ResetTrack();
+    FrameInput in;
+    in.t_us = 1000000;
+    in.omni = MakeYuyvImage(both.data(), 640, 480);
+    BallState s;
+    EXPECT_TRUE(pipeline_->Process(in, s).ok());
+    EXPECT_TRUE(s.found);
+    return Eigen::Vector3f(s.x_m, s.y_m, s.z_m);
+  };
+  const Eigen::Vector3f without = choose(false);
+  EXPECT_LT((without - outside).norm(), 0.1f) << "without a pose the larger region wins";
+  const Eigen::Vector3f with = choose(true);
+  EXPECT_LT((with - inside).norm(), 0.1f) << with.transpose();
+  EXPECT_TRUE(pipeline_->InField(inside.x(), inside.y()));
+  EXPECT_FALSE(pipeline_->InField(outside.x(), outside.y()));
+  RobotPose bad;
+  bad.x_m = NAN;
+  EXPECT_EQ(pipeline_->SetRobotPose(bad).code(), StatusCode::kInvalidArgument);
+}
+
 TEST_F(PipelineTest, OneCameraFallbacksAreFlagged) {
   // Omni only, ball on the floor: ground assumption.
   pipeline_->ResetTrack();
