@@ -49,7 +49,9 @@ TEST(Cobs, RoundTripAllLengthsAndZeroPatterns) {
       auto m = CobsDecode({enc.data(), *n}, dec);
       ASSERT_TRUE(m.ok()) << len;
       ASSERT_EQ(*m, len);
-      if (len > 0) EXPECT_EQ(0, std::memcmp(in.data(), dec.data(), len));
+      if (len > 0) {
+        EXPECT_EQ(0, std::memcmp(in.data(), dec.data(), len));
+      }
     }
   }
 }
