@@ -128,6 +128,7 @@ Status Pipeline::Init(const RigCalibration& calibration, const ColorLut& lut,
   lut_ = &lut;
   config_ = config;
   config_.filter.ball_radius_m = calibration.ball_radius_m;
+  config_.finder.ball_box = lut.Bounds(ColorClass::kBall);
   if (calibration.omni.valid) {
     const OmniScanConfig scan =
         ReferenceOmniScanConfig(calibration.omni.center_u, calibration.omni.center_v);

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <cstring>
 #include <memory>
 #include <vector>
@@ -60,6 +61,37 @@ TEST(ColorLutTest, PackedCellsAreIndependent) {
   EXPECT_EQ(lut->at(10), ColorClass::kUnknown);
   EXPECT_EQ(lut->at(11), ColorClass::kField);
   EXPECT_LE(sizeof(ColorLut), 32u * 1024u);
+}
+
+TEST(ColorLutTest, ChromaBoxHoldsEveryBallPixel) {
+  // The committed sim LUT: every (y, u, v) classified as ball lies inside the box, and the box
+  // is tight enough to reject the field green.
+  std::vector<uint8_t> blob;
+  {
+    FILE* f = std::fopen((std::string(BV_TEST_DATA_DIR) + "/luts/sim_orange.lut").c_str(), "rb");
+    ASSERT_NE(f, nullptr);
+    blob.resize(kColorLutBlobBytes);
+    blob.resize(std::fread(blob.data(), 1, blob.size(), f));
+    std::fclose(f);
+  }
+  auto lut = std::make_unique<ColorLut>();
+  ASSERT_TRUE(ParseLut(blob, *lut).ok());
+  const ChromaBox box = lut->Bounds(ColorClass::kBall);
+  ASSERT_FALSE(box.empty);
+  int ball = 0;
+  for (int y = 0; y < 256; y += 3) {
+    for (int u = 0; u < 256; ++u) {
+      for (int v = 0; v < 256; ++v) {
+        if (lut->Classify(uint8_t(y), uint8_t(u), uint8_t(v)) != ColorClass::kBall) continue;
+        ++ball;
+        ASSERT_TRUE(box.Contains(uint8_t(u), uint8_t(v))) << y << " " << u << " " << v;
+      }
+    }
+  }
+  EXPECT_GT(ball, 0);
+  EXPECT_FALSE(box.Contains(90, 100)) << "field green (low V) must be rejected by the box";
+  EXPECT_TRUE(std::make_unique<ColorLut>()->Bounds(ColorClass::kBall).empty);
+  EXPECT_TRUE(ChromaBox{}.Contains(0, 255));
 }
 
 TEST(ColorLutTest, BlobRoundTrip) {

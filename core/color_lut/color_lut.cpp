@@ -51,6 +51,30 @@ uint32_t EntriesCrc(uint32_t crc, const ColorLut& lut) {
 
 uint32_t ColorLut::Id() const { return EntriesCrc(0, *this); }
 
+ChromaBox ColorLut::Bounds(ColorClass c) const {
+  constexpr uint32_t kUCells = 1u << kUBits, kVCells = 1u << kVBits;
+  uint32_t umin = kUCells, umax = 0, vmin = kVCells, vmax = 0;
+  for (uint32_t i = 0; i < kEntries; ++i) {
+    if (at(i) != c) continue;
+    const uint32_t uc = (i >> kVBits) & (kUCells - 1), vc = i & (kVCells - 1);
+    umin = uc < umin ? uc : umin;
+    umax = uc > umax ? uc : umax;
+    vmin = vc < vmin ? vc : vmin;
+    vmax = vc > vmax ? vc : vmax;
+  }
+  ChromaBox box;
+  if (umin > umax) {
+    box.empty = true;
+    return box;
+  }
+  // A cell covers 2^(8 - bits) chroma values.
+  box.u_min = static_cast<uint8_t>(umin << (8 - kUBits));
+  box.u_max = static_cast<uint8_t>(((umax + 1) << (8 - kUBits)) - 1);
+  box.v_min = static_cast<uint8_t>(vmin << (8 - kVBits));
+  box.v_max = static_cast<uint8_t>(((vmax + 1) << (8 - kVBits)) - 1);
+  return box;
+}
+
 Result<size_t> SerializeLut(const ColorLut& lut, std::span<uint8_t> out) {
   if (out.size() < kColorLutBlobBytes) {
     return Status(StatusCode::kResourceExhausted,

@@ -22,6 +22,17 @@ enum class ColorClass : uint8_t {
 inline constexpr int kColorClassCount = 5;
 const char* ColorClassName(ColorClass c);
 
+/// Chroma bounding box of one class (inclusive U and V ranges of all its cells); a pixel outside
+/// it can never have that class, which lets the scanlines reject most pixels with two compares.
+struct ChromaBox {
+  uint8_t u_min = 0, u_max = 255, v_min = 0, v_max = 255;  // default: no rejection
+  bool empty = false;                                      // the class has no cell at all
+  constexpr bool Contains(uint8_t u, uint8_t v) const {
+    return static_cast<uint8_t>(u - u_min) <= static_cast<uint8_t>(u_max - u_min) &&
+           static_cast<uint8_t>(v - v_min) <= static_cast<uint8_t>(v_max - v_min);
+  }
+};
+
 class ColorLut {
  public:
   static constexpr int kYBits = 4;
@@ -57,6 +68,8 @@ class ColorLut {
   void CopyEntries(uint32_t first, std::span<uint8_t> out) const;
   /// CRC-32 of the table, one byte per cell (RigCalibration::lut_id).
   uint32_t Id() const;
+  /// Chroma box of class `c` (a scan over all cells: call once per LUT, not per frame).
+  ChromaBox Bounds(ColorClass c) const;
 
  private:
   // 4 bits per cell halve the RAM (the 128 KB budget); classes fit in 4 bits.

@@ -107,6 +107,7 @@ Status BallFinder::Find(const YuyvImage& image, const ColorLut& lut, const Predi
   // 2. Scanlines, row-major: a seed at the first ball sample of every run along a row.
   const uint8_t* data = image.data;
   const int stride = image.stride_bytes;
+  const ChromaBox box = config_.ball_box;
   scan_->ForEachRow([&](int v, int u, const uint8_t* deltas, int n) {
     const uint8_t* row = data + v * stride;
     bool in_run = false;
@@ -120,7 +121,8 @@ Status BallFinder::Find(const YuyvImage& image, const ColorLut& lut, const Predi
       const uint8_t* pair = row + (u & ~1) * 2;
       // A fresh frame is cold in cache: fetch the rows below while this one is classified.
       if (v + kPrefetchRows < image.height) __builtin_prefetch(pair + kPrefetchRows * stride);
-      const bool ball = lut.Classify(pair[(u & 1) * 2], pair[1], pair[3]) == ColorClass::kBall;
+      const bool ball = box.Contains(pair[1], pair[3]) &&
+                        lut.Classify(pair[(u & 1) * 2], pair[1], pair[3]) == ColorClass::kBall;
       if (ball && !in_run) Seed(image, lut, u, v, stats);
       in_run = ball;
     }

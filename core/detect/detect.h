@@ -45,6 +45,9 @@ struct BallFinderConfig {
   uint32_t prng_seed = 0x2545F491u;
   InFieldFn in_field = nullptr;  // optional
   void* in_field_context = nullptr;
+  // ColorLut::Bounds(kBall) of the LUT passed to Find: scanline pixels outside it are rejected
+  // without a table lookup. The default box rejects nothing.
+  ChromaBox ball_box;
 };
 
 class BallFinder {

@@ -19,9 +19,9 @@ fi
 [ -n "$lut" ] && [ -f "$lut" ] && args="$args,arg=lut=$lut"
 addr() { "$nm" "$elf" | awk -v s="$1" '$3 == s { print "0x" $1 }'; }
 
-run() {  # $1 begin marker, $2 end marker, $3 log
+run() {  # $1 begin marker, $2 end marker, $3 log [$4 semihosting args, default $args]
   "$qemu" -machine mps2-an500 -display none -monitor none -icount shift=0 \
-    -serial "file:$work/uart.bin" -semihosting-config "enable=on,target=native,$args" \
+    -serial "file:$work/uart.bin" -semihosting-config "enable=on,target=native,${4:-$args}" \
     -plugin "$plugin,begin=$(addr "$1"),end=$(addr "$2")" -d plugin -D "$3" \
     -kernel "$elf" < /dev/null 2> "$work/qemu.err" || { cat "$work/qemu.err"; fail "QEMU failed"; }
   grep '^insncount:' "$3" | tail -1
@@ -33,6 +33,15 @@ pipe=$(run bv_perf_begin bv_perf_end "$work/pipeline.log")
 pair=$(run bv_pair_begin bv_pair_end "$work/pair.log")
 echo "pipeline (Pipeline::Process) per frame pair: $pipe"
 echo "whole loop per frame pair (pipeline + packet + UART + status): $pair"
+# One camera at a time (the other column of frames.csv emptied): the pipeline with a single
+# image, i.e. that camera's front end plus the one-camera fallback and the filter.
+for cam in omni persp; do
+  d="$work/seq_$cam"
+  mkdir -p "$d" && ln -sf "$work"/seq/*.yuyv "$d"/
+  awk -F, -v OFS=, -v cam="$cam" 'NR == 1 { print; next } { if (cam == "omni") $4 = ""; else $3 = ""; print }' \
+    "$work/seq/frames.csv" > "$d/frames.csv"
+  echo "pipeline per $cam image alone: $(run bv_perf_begin bv_perf_end "$work/$cam.log" "${args/seq=$work\/seq/seq=$d}")"
+done
 if echo "$pipe" | grep -q 'intervals=0 '; then
   echo "note: the pipeline did not run (no valid calibration + LUT: BV_FW_CALIB_JSON and"
   echo "      BV_FW_LUT_BLOB); the loop figure then covers the no-calibration path only"
