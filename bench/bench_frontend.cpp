@@ -22,6 +22,13 @@
 
 namespace {
 
+// As the pipeline configures it: the LUT's ball chroma box lets the scanlines skip lookups.
+bv::BallFinderConfig FinderConfig(const bv::ColorLut& lut) {
+  bv::BallFinderConfig c;
+  c.ball_box = lut.Bounds(bv::ColorClass::kBall);
+  return c;
+}
+
 using namespace bv;
 
 struct Data {
@@ -155,7 +162,7 @@ void BM_Find(benchmark::State& st, bool omni, bool attention) {
   const ScanlineTableBase& scan =
       omni ? static_cast<const ScanlineTableBase&>(*d.omni_scan) : *d.persp_scan;
   auto finder = std::make_unique<BallFinder>();
-  if (!finder->Init(scan, {}).ok()) return st.SkipWithError("init");
+  if (!finder->Init(scan, FinderConfig(*d.lut)).ok()) return st.SkipWithError("init");
   // Predictions from a first pass (what the filter would supply).
   std::vector<BallDetection> first(frames.size());
   FrontEndStats fs;
@@ -252,7 +259,7 @@ void SideBySide() {
     const ScanlineTableBase& scan =
         cam == 0 ? static_cast<const ScanlineTableBase&>(*d.omni_scan) : *d.persp_scan;
     auto finder = std::make_unique<BallFinder>();
-    (void)finder->Init(scan, {}).ok();
+    (void)finder->Init(scan, FinderConfig(*d.lut)).ok();
     cv::Mat bgr, hsv, mask;
     constexpr int kReps = 20;
     double pixels = 0;
