@@ -10,6 +10,8 @@
 
 #include <gtest/gtest.h>
 
+#include "host_tests/test_util.h"
+
 #include "core/calibration/calibration.h"
 #include "core/common/blob.h"
 #include "core/common/crc32.h"
@@ -132,23 +134,10 @@ TEST(CalibrationBlob, FieldsAreValidated) {
             StatusCode::kResourceExhausted);
 }
 
-std::string TempDir() {
-  const fs::path d = fs::temp_directory_path() / ("bv_calib_blob_" + std::to_string(::getpid()));
-  static const struct Cleanup {
-    fs::path p;
-    ~Cleanup() {
-      std::error_code ec;
-      fs::remove_all(p, ec);
-    }
-  } cleanup{d};
-  fs::create_directories(d);
-  return d.string();
-}
+std::string TempDir() { return test::TempDir("bv_calib_blob"); }
 
 int Calib(std::vector<std::string> args) {
-  std::vector<char*> argv;
-  for (auto& a : args) argv.push_back(a.data());
-  return cli::CmdCalib(static_cast<int>(argv.size()), argv.data());
+  return test::RunCommand(cli::CmdCalib, std::move(args));
 }
 
 TEST(CalibrationFile, JsonBlobJsonThroughTheCli) {

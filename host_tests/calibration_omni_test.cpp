@@ -13,6 +13,8 @@
 
 #include <gtest/gtest.h>
 
+#include "host_tests/test_util.h"
+
 #include "core/calibration/calibration.h"
 #include "tools/ballvision/calib_io.h"
 #include "tools/ballvision/commands.h"
@@ -230,23 +232,10 @@ TEST(OmniReference, CommittedReferenceCalibrationMatchesTruth) {
   CheckAgainstTruth(std::string(BV_TEST_DATA_DIR) + "/reference_rig_calib.json");
 }
 
-std::string TempDir() {
-  const fs::path d = fs::temp_directory_path() / ("bv_calib_omni_" + std::to_string(::getpid()));
-  static const struct Cleanup {
-    fs::path p;
-    ~Cleanup() {
-      std::error_code ec;
-      fs::remove_all(p, ec);
-    }
-  } cleanup{d};
-  fs::create_directories(d);
-  return d.string();
-}
+std::string TempDir() { return test::TempDir("bv_calib_omni"); }
 
 int RunCli(std::vector<std::string> args) {
-  std::vector<char*> argv;
-  for (auto& a : args) argv.push_back(a.data());
-  return cli::CmdCalibrate(static_cast<int>(argv.size()), argv.data());
+  return test::RunCommand(cli::CmdCalibrate, std::move(args));
 }
 
 TEST(OmniCalibrate, CarpetRunEndToEnd) {

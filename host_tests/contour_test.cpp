@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include "host_tests/test_util.h"
+
 #include <cmath>
 #include <functional>
 #include <memory>
@@ -31,16 +33,7 @@ struct Frame {
   YuyvImage view() const { return MakeYuyvImage(data.data(), w, h); }
 };
 
-const ColorLut& Lut() {
-  static const std::unique_ptr<ColorLut> lut = [] {
-    auto l = std::make_unique<ColorLut>();
-    l->Fill(ColorClass::kField);
-    for (int y = 192; y < 256; ++y)
-      l->Set(ColorLut::Index(static_cast<uint8_t>(y), 128, 128), ColorClass::kBall);
-    return l;
-  }();
-  return *lut;
-}
+const ColorLut& Lut() { return test::BrightIsBallLut(); }
 
 using Set32 = RegionSet<32, 8192>;
 
