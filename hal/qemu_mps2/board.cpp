@@ -7,6 +7,15 @@
 //   period_us=N    frame period for the deadline accounting (default 33333)
 //   rx_bytes=N     test aid: the replay ends only after N bytes arrived on UART0
 //   selftest=fault executes an undefined instruction (tests the fault handler)
+//   inject=KIND@N[,KIND@N...]  fault injection keyed on the pair index N (from 0), for faults a
+//                  frames.csv cannot express (swapped / jumping timestamps and a camera that
+//                  stops are written into the test sequence instead):
+//                    torn@N       pair N's omni slot is handed out half written (kPairTorn)
+//                    drop@N       pairs N and N+1 complete before the loop polls (one dropped)
+//                    uartstuck@N  UART0 transmits nothing after pair N is handed out
+//                    hang@N       the loop hangs releasing pair N (the watchdog must bite)
+// A software watchdog (watchdog.h) fed by every camera poll ends a stalled run with exit 103.
+// At exit the board prints its own counters ("board: exit ..."), which survive a stuck UART.
 #include <cstring>
 
 #include "firmware/board.h"
@@ -17,6 +26,7 @@
 #include "hal/qemu_mps2/semihosting.h"
 #include "hal/qemu_mps2/storage.h"
 #include "hal/qemu_mps2/uart.h"
+#include "hal/qemu_mps2/watchdog.h"
 
 namespace bv::fw {
 namespace {
@@ -30,8 +40,13 @@ uint8_t g_storage_mem[RamStorage::kSlots * RamStorage::kSlotBytes];
 
 __attribute__((section(".psram"), aligned(32))) uint8_t g_upload[kUploadBufferBytes];
 
+// Far longer than a healthy iteration (a frame pair takes ~1 ms) and than activating an uploaded
+// LUT (verify, A/B save, pipeline re-init: boot does the same work in ~0.2 s of virtual time).
+constexpr uint32_t kWatchdogTimeoutMs = 1000;
+
 char g_cmdline[512];
-CmsdkUart* g_uart = nullptr;  // for the flush at exit
+CmsdkUart* g_uart = nullptr;            // for the flush at exit
+SemihostingCamera* g_camera = nullptr;  // for the exit summary
 
 // Finds "key=" in the command line and copies its value; false if absent or too long.
 bool GetArg(const char* key, char* out, size_t out_size) {
@@ -73,6 +88,47 @@ bool GetU32Arg(const char* key, uint32_t& out) {
   SemiWrite0(key);
   SemiWrite0("\n");
   return false;
+}
+
+struct InjectPlan {
+  CameraFaults camera;
+  uint32_t uart_stuck_at = CameraFaults::kNever;
+};
+
+// Parses inject=KIND@N[,KIND@N...]; unknown or malformed items are reported and ignored.
+InjectPlan ParseInject() {
+  InjectPlan plan;
+  char list[128];
+  if (!GetArg("inject", list, sizeof(list))) return plan;
+  char* item = list;
+  while (*item != '\0') {
+    char* end = item;
+    while (*end != '\0' && *end != ',') ++end;
+    const bool last = *end == '\0';
+    *end = '\0';
+    char* at = std::strchr(item, '@');
+    uint32_t n = 0;
+    uint32_t* target = nullptr;
+    if (at != nullptr) {
+      *at = '\0';
+      if (std::strcmp(item, "torn") == 0) target = &plan.camera.torn_at;
+      if (std::strcmp(item, "drop") == 0) target = &plan.camera.drop_at;
+      if (std::strcmp(item, "uartstuck") == 0) target = &plan.uart_stuck_at;
+      if (std::strcmp(item, "hang") == 0) target = &plan.camera.hang_at;
+    }
+    if (target != nullptr && ParseU32(at + 1, n) && n != CameraFaults::kNever) {
+      *target = n;
+      SemiWrite0("board: inject ");
+      SemiWriteDec(item, n);
+    } else {
+      SemiWrite0("board: ignoring inject item ");
+      SemiWrite0(item);
+      SemiWrite0(" (expected torn@N, drop@N, uartstuck@N or hang@N)\n");
+    }
+    if (last) break;
+    item = end + 1;
+  }
+  return plan;
 }
 
 void LogBlobProblem(const char* path, const char* what, const char* detail) {
@@ -149,6 +205,15 @@ Status BoardInit(BoardServices& out) {
 
   uint32_t rx_bytes = 0;
   if (GetU32Arg("rx_bytes", rx_bytes)) camera.HoldOpenUntil(uart.rx_bytes(), rx_bytes);
+  const InjectPlan plan = ParseInject();
+  camera.InjectFaults(plan.camera);
+  if (plan.uart_stuck_at != CameraFaults::kNever) {
+    // Stuck once pair N has been handed out: pairs_served > N.
+    uart.StallTxAfter(camera.pairs_served_counter(), plan.uart_stuck_at);
+  }
+  camera.SetClock(&clock);
+  g_camera = &camera;
+  WatchdogStart(kTimerClockHz, kWatchdogTimeoutMs);
 
   out.camera = &camera;
   out.uart = &uart;
@@ -170,8 +235,28 @@ std::span<uint8_t> BoardUploadBuffer() { return g_upload; }
 void BoardLog(const char* text) { SemiWrite0(text); }
 
 void BoardExit(int code) {
-  // The UART (ring + hardware) is fully drained before QEMU exits and closes the serial file.
+  WatchdogStop();
+  // The UART (ring + hardware) is fully drained before QEMU exits and closes the serial file
+  // (unless its transmitter is stalled by fault injection: then the summary below is all).
   if (g_uart != nullptr) g_uart->Flush();
+  if (g_camera != nullptr) {
+    SemiWrite0("board: exit ");
+    SemiWriteDec("pairs_served", *g_camera->pairs_served_counter());
+    SemiWrite0("board: exit ");
+    SemiWriteDec("frames_dropped", g_camera->frames_dropped());
+    SemiWrite0("board: exit ");
+    SemiWriteDec("pairs_torn", g_camera->pairs_torn());
+    SemiWrite0("board: exit ");
+    SemiWriteDec("max_hold_us", g_camera->max_hold_us());
+  }
+  if (g_uart != nullptr) {
+    SemiWrite0("board: exit ");
+    SemiWriteDec("uart_writes_refused", g_uart->writes_refused());
+    SemiWrite0("board: exit ");
+    SemiWriteDec("uart_bytes_sent", g_uart->bytes_sent());
+    SemiWrite0("board: exit ");
+    SemiWriteDec("uart_bytes_queued", g_uart->bytes_queued());
+  }
   SemiExit(code);
 }
 

@@ -3,6 +3,7 @@
 #include <cstring>
 
 #include "hal/qemu_mps2/semihosting.h"
+#include "hal/qemu_mps2/watchdog.h"
 
 namespace bv::qemu {
 
@@ -50,7 +51,7 @@ Status SemihostingCamera::DoStart() {
 }
 
 bool SemihostingCamera::LoadFrame(hal::CameraId id, const char* file, const FramesRow& row,
-                                  uint32_t line, uint32_t& slot) {
+                                  uint32_t line, uint32_t& slot, bool tear) {
   (void)row;
   const int c = static_cast<int>(id);
   const size_t fn = std::strlen(file);
@@ -83,19 +84,67 @@ bool SemihostingCamera::LoadFrame(hal::CameraId id, const char* file, const Fram
   }
   const long len = SemiFileLength(fd);
   bool ok = false;
+  uint32_t& seq = slot_seq_[c][target];
+  if ((seq & 1u) == 0) ++seq;  // write started (stays odd if an earlier write never ended)
+  // Injected tear: the frame-complete event fires while the DMA has written only the top half;
+  // the bottom half still holds the slot's previous frame (half new, half old).
+  const size_t bytes = tear ? kFrameBytes / 2 : kFrameBytes;
   if (len != static_cast<long>(kFrameBytes)) {
     Report("frame file is not 640x480x2 bytes", line, file);
-  } else if (SemiRead(fd, slots_[c][target], kFrameBytes) != static_cast<int>(kFrameBytes)) {
+  } else if (SemiRead(fd, slots_[c][target], bytes) != static_cast<int>(bytes)) {
     Report("short read of frame file", line, file);
   } else {
     ok = true;
   }
+  if (!tear) ++seq;  // write complete
   SemiClose(fd);
   slot = static_cast<uint32_t>(target);
   return ok;
 }
 
+bool SemihostingCamera::NextRow(FramesRow& row, uint32_t& line) {
+  if (finished_ || csv_fd_ < 0) return false;
+  for (;;) {
+    const LineReader::Result r = reader_.Next();
+    line = reader_.line_number();
+    if (r == LineReader::Result::kEof || r == LineReader::Result::kIoError) {
+      if (r == LineReader::Result::kIoError) Report("read error", line, "end of replay");
+      finished_ = true;
+      SemiClose(csv_fd_);
+      csv_fd_ = -1;
+      return false;
+    }
+    if (r == LineReader::Result::kTooLong) {
+      Report("line too long", line, "row skipped");
+    } else if (reader_.length() == 0) {
+      continue;  // blank line
+    } else {
+      const Status st = ParseFramesRow(reader_.line(), reader_.length(), row);
+      if (st.ok()) return true;
+      Report("malformed row", line, st.message());
+    }
+    ++bad_rows_;
+    ++bad_input_;
+  }
+}
+
+void SemihostingCamera::CaptureRow(const FramesRow& row, uint32_t line, bool tear_omni) {
+  const char* files[hal::kCameraCount] = {row.omni_file, row.persp_file};
+  for (int c = 0; c < hal::kCameraCount; ++c) {
+    if (files[c][0] == '\0') continue;
+    uint32_t slot = 0;
+    const auto id = static_cast<hal::CameraId>(c);
+    if (LoadFrame(id, files[c], row, line, slot, tear_omni && c == 0)) {
+      pairer_.OnFrameComplete(id, row.t_us, static_cast<uint32_t>(row.index), slot);
+    } else {
+      ++bad_frames_;
+      ++bad_input_;
+    }
+  }
+}
+
 Status SemihostingCamera::DoAcquirePair(hal::FramePair& out) {
+  WatchdogFeed();  // every main-loop iteration asks for a pair
   if (finished_ || csv_fd_ < 0) {
     return Status(StatusCode::kUnavailable, "camera: no frame");
   }
@@ -105,39 +154,15 @@ Status SemihostingCamera::DoAcquirePair(hal::FramePair& out) {
   }
   FramesRow row;
   uint32_t line = 0;
-  for (;;) {
-    const LineReader::Result r = reader_.Next();
-    line = reader_.line_number();
-    if (r == LineReader::Result::kEof || r == LineReader::Result::kIoError) {
-      if (r == LineReader::Result::kIoError) Report("read error", line, "end of replay");
-      finished_ = true;
-      SemiClose(csv_fd_);
-      csv_fd_ = -1;
-      return Status(StatusCode::kUnavailable, "camera: end of sequence");
-    }
-    if (r == LineReader::Result::kTooLong) {
-      Report("line too long", line, "row skipped");
-    } else if (reader_.length() == 0) {
-      continue;  // blank line
-    } else {
-      const Status st = ParseFramesRow(reader_.line(), reader_.length(), row);
-      if (st.ok()) break;
-      Report("malformed row", line, st.message());
-    }
-    ++bad_rows_;
-    ++bad_input_;
-  }
-
-  const char* files[hal::kCameraCount] = {row.omni_file, row.persp_file};
-  for (int c = 0; c < hal::kCameraCount; ++c) {
-    if (files[c][0] == '\0') continue;
-    uint32_t slot = 0;
-    const auto id = static_cast<hal::CameraId>(c);
-    if (LoadFrame(id, files[c], row, line, slot)) {
-      pairer_.OnFrameComplete(id, row.t_us, static_cast<uint32_t>(row.index), slot);
-    } else {
-      ++bad_frames_;
-      ++bad_input_;
+  if (!NextRow(row, line)) return Status(StatusCode::kUnavailable, "camera: end of sequence");
+  CaptureRow(row, line, pairs_served_ == faults_.torn_at);
+  if (pairs_served_ == faults_.drop_at) {
+    // Injected overrun: the next row's frames also complete before the loop polls, so the
+    // pairer replaces (and counts as dropped) the unserved frames of this row.
+    FramesRow next;
+    if (NextRow(next, line)) {
+      CaptureRow(next, line, false);
+      row = next;
     }
   }
   // A replay has no partner arriving later: decide at once.
@@ -156,12 +181,19 @@ Status SemihostingCamera::DoAcquirePair(hal::FramePair& out) {
     f.sequence = d.sequence[c];
     f.present = true;
     held_[c] = static_cast<int>(d.slot[c]);
+    // Tear detection: a slot whose write sequence is odd is still being written by the DMA.
+    // On hardware the same check reads the DMA's per-slot transfer state (remaining count /
+    // frame counter) at handout; here only the injected tear leaves a write unfinished.
+    if ((slot_seq_[c][d.slot[c]] & 1u) != 0) out.flags |= hal::kPairTorn;
   }
   out.exposure_us = d.exposure_us_pair;
   out.skew_us = d.skew_us;
-  out.flags = d.flags;
+  out.flags |= d.flags;
   out.dropped = d.dropped;
   out.slot = (d.slot[0] & 0xFFu) | ((d.slot[1] & 0xFFu) << 8);
+  if ((out.flags & hal::kPairTorn) != 0) ++pairs_torn_;
+  frames_dropped_ += d.dropped;
+  if (clock_ != nullptr) handout_us_ = clock_->NowUs();
   ++pairs_served_;
   return Status();
 }
@@ -169,6 +201,14 @@ Status SemihostingCamera::DoAcquirePair(hal::FramePair& out) {
 void SemihostingCamera::DoRelease(const hal::FramePair& pair) {
   if (pair.omni.present) held_[0] = -1;
   if (pair.persp.present) held_[1] = -1;
+  if (pairs_served_ == faults_.hang_at + 1) {
+    SemiWrite0("camera: inject hang: the loop never returns from this release\n");
+    for (;;) asm volatile("" ::: "memory");
+  }
+  if (clock_ != nullptr) {
+    const uint64_t held_us = clock_->NowUs() - handout_us_;
+    if (held_us > max_hold_us_) max_hold_us_ = held_us;
+  }
 }
 
 }  // namespace bv::qemu

@@ -6,6 +6,7 @@
 
 #include "core/common/image.h"
 #include "hal/camera.h"
+#include "hal/clock.h"
 #include "hal/common/frame_pairer.h"
 #include "hal/qemu_mps2/frames_csv.h"
 
@@ -13,6 +14,15 @@ namespace bv::qemu {
 
 inline constexpr int kSlotsPerCamera = 2;
 using FrameSlots = uint8_t[hal::kCameraCount][kSlotsPerCamera][kFrameBytes];
+
+/// Camera faults a file cannot express (board argument inject=, see board.cpp). Indices count
+/// pairs handed out, from 0; kNever: off.
+struct CameraFaults {
+  static constexpr uint32_t kNever = UINT32_MAX;
+  uint32_t torn_at = kNever;  // pair N's omni slot is handed out while its DMA write is half done
+  uint32_t drop_at = kNever;  // the frames of pair N and N+1 complete before the loop polls
+  uint32_t hang_at = kNever;  // releasing pair N never returns: a hung loop (watchdog test)
+};
 
 class SemihostingCamera : public hal::Camera {
  public:
@@ -32,6 +42,14 @@ class SemihostingCamera : public hal::Camera {
     hold_counter_ = counter;
     hold_target_ = target;
   }
+  void InjectFaults(const CameraFaults& faults) { faults_ = faults; }
+  /// Optional: measures the time each pair is held (AcquirePair -> Release).
+  void SetClock(const hal::Clock* clock) { clock_ = clock; }
+  /// Pairs handed out so far (the fault schedule of other peripherals keys on it).
+  const uint32_t* pairs_served_counter() const { return &pairs_served_; }
+  uint32_t pairs_torn() const { return pairs_torn_; }
+  uint32_t frames_dropped() const { return frames_dropped_; }
+  uint64_t max_hold_us() const { return max_hold_us_; }
 
  private:
   Status DoStart() override;
@@ -42,7 +60,11 @@ class SemihostingCamera : public hal::Camera {
   }
 
   bool LoadFrame(hal::CameraId id, const char* file, const FramesRow& row, uint32_t line,
-                 uint32_t& slot);
+                 uint32_t& slot, bool tear);
+  /// Next parseable frames.csv row; false at the end of the sequence (then finished_).
+  bool NextRow(FramesRow& row, uint32_t& line);
+  /// "DMA" of the row's frames into free slots, reported to the pairer.
+  void CaptureRow(const FramesRow& row, uint32_t line, bool tear_omni);
   void Report(const char* what, uint32_t line, const char* detail);
 
   FrameSlots& slots_;
@@ -60,6 +82,15 @@ class SemihostingCamera : public hal::Camera {
   bool finished_ = false;
   const uint32_t* hold_counter_ = nullptr;
   uint32_t hold_target_ = 0;
+  CameraFaults faults_;
+  // Per-slot DMA write sequence, odd while a write is in progress (a seqlock): a slot handed out
+  // with an odd number is torn. See DoAcquirePair.
+  uint32_t slot_seq_[hal::kCameraCount][kSlotsPerCamera] = {};
+  uint32_t pairs_torn_ = 0;
+  uint32_t frames_dropped_ = 0;
+  const hal::Clock* clock_ = nullptr;
+  uint64_t handout_us_ = 0;
+  uint64_t max_hold_us_ = 0;
 };
 
 }  // namespace bv::qemu

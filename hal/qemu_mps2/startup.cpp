@@ -11,6 +11,7 @@ int main();
 [[noreturn]] void Reset_Handler();
 [[noreturn]] void Fault_Handler();
 void Default_Handler();
+void WatchdogTick_IRQHandler();  // hal/qemu_mps2/watchdog.cpp
 }
 
 namespace {
@@ -39,8 +40,8 @@ extern "C" __attribute__((section(".vectors"), used)) const Vector g_vectors[16 
     Default_Handler,  // SVC
     Default_Handler,  // DebugMon
     nullptr,
-    Default_Handler,  // PendSV
-    Default_Handler,  // SysTick
+    Default_Handler,          // PendSV
+    WatchdogTick_IRQHandler,  // SysTick
     // External interrupts are not used: everything is polled.
     Default_Handler,
     Default_Handler,

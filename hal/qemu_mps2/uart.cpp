@@ -8,21 +8,24 @@ void CmsdkUart::Init() {
 }
 
 size_t CmsdkUart::Poll() {
+  if (tx_stalled()) return head_ - tail_;
   while (tail_ != head_ && (regs_->STATE & kUartStateTxFull) == 0) {
     regs_->DATA = tx_[tail_ & (kTxCapacity - 1)];
     ++tail_;
+    ++bytes_sent_;
   }
   return head_ - tail_;
 }
 
 void CmsdkUart::Flush() {
-  while (Poll() != 0) {
+  while (Poll() != 0 && !tx_stalled()) {
   }
 }
 
 Status CmsdkUart::DoWrite(std::span<const uint8_t> bytes) {
   Poll();
   if (bytes.size() > kTxCapacity - (head_ - tail_)) {
+    ++writes_refused_;
     return Status(StatusCode::kUnavailable, "uart0: transmit ring full");
   }
   for (uint8_t b : bytes) tx_[head_++ & (kTxCapacity - 1)] = b;
