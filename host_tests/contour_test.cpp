@@ -92,6 +92,68 @@ TEST(ContourTest, DiscAreaCentroidPerimeterRoundness) {
   }
 }
 
+// The hull measures against their closed forms (disc 1 / 1, half disc 0.73 / 0.5, 3:1 bar
+// 0.59 / 0.33), and a disc with a ragged outline: the chain-code roundness collapses, the hull
+// roundness does not.
+TEST(ContourTest, HullRoundnessAndWidthRatio) {
+  struct Case {
+    const char* name;
+    std::function<bool(int, int)> inside;
+    float hull, width;
+  };
+  const float cx = 300.4f, cy = 240.6f, r = 25.0f;
+  const std::vector<Case> cases = {
+      {"disc", [&](int u, int v) { return std::hypot(u - cx, v - cy) <= r; }, 0.97f, 1.0f},
+      {"half disc", [&](int u, int v) { return std::hypot(u - cx, v - cy) <= r && u >= cx; },
+       0.73f, 0.5f},
+      {"3:1 bar", [](int u, int v) { return u >= 250 && u < 340 && v >= 220 && v < 250; }, 0.59f,
+       0.33f},
+  };
+  for (const Case& c : cases) {
+    Frame f;
+    f.Draw(c.inside);
+    auto rs = std::make_unique<Set32>();
+    ASSERT_EQ(rs->TraceSeed(f.view(), Lut(), ColorClass::kBall, 310, 235), SeedOutcome::kNewRegion)
+        << c.name;
+    const Region& reg = rs->regions()[0];
+    EXPECT_NEAR(reg.hull_roundness, c.hull, 0.04f) << c.name;
+    EXPECT_NEAR(reg.width_ratio, c.width, 0.04f) << c.name;
+  }
+  // Ragged: every boundary pixel of the disc has its radius modulated by +-2 px at random.
+  Frame f;
+  uint32_t rng = 12345;
+  std::vector<float> edge(64);
+  for (float& e : edge) {
+    rng = rng * 1664525u + 1013904223u;
+    e = r - 2.0f + 4.0f * static_cast<float>(rng >> 8) / 16777216.0f;
+  }
+  f.Draw([&](int u, int v) {
+    const float a = std::atan2(v - cy, u - cx) + 3.14159265f;
+    return std::hypot(u - cx, v - cy) <= edge[static_cast<int>(a / 6.2832f * 63.999f)];
+  });
+  auto rs = std::make_unique<Set32>();
+  ASSERT_EQ(rs->TraceSeed(f.view(), Lut(), ColorClass::kBall, 300, 240), SeedOutcome::kNewRegion);
+  const Region& reg = rs->regions()[0];
+  EXPECT_LT(reg.roundness, 0.6f);
+  EXPECT_GT(reg.hull_roundness, 0.85f);
+  EXPECT_GT(reg.width_ratio, 0.9f);
+}
+
+TEST(ContourTest, RegionsBelowMinKeepAreaAreForgotten) {
+  Frame f;
+  f.Draw([](int u, int v) { return u >= 10 && u < 13 && v >= 10 && v < 13; });  // 9 px
+  f.Draw([](int u, int v) { return u >= 50 && u < 54 && v >= 10 && v < 14; });  // 16 px
+  auto rs = std::make_unique<Set32>();
+  rs->set_min_keep_area(10.0f);
+  EXPECT_EQ(rs->TraceSeed(f.view(), Lut(), ColorClass::kBall, 11, 11), SeedOutcome::kTooSmall);
+  EXPECT_EQ(rs->TraceSeed(f.view(), Lut(), ColorClass::kBall, 12, 12), SeedOutcome::kTooSmall);
+  EXPECT_EQ(rs->TraceSeed(f.view(), Lut(), ColorClass::kBall, 51, 11), SeedOutcome::kNewRegion);
+  ASSERT_EQ(rs->regions().size(), 1u);
+  EXPECT_FLOAT_EQ(rs->regions()[0].area_px, 16.0f);
+  EXPECT_EQ(rs->dropped_small(), 2u);
+  EXPECT_EQ(rs->overflows(), 0u);
+}
+
 TEST(ContourTest, SinglePixelAndThinLine) {
   Frame f;
   f.Set(10, 10, true);

@@ -11,7 +11,7 @@ struct BallDetection {
   float u_px = 0, v_px = 0;  // sub-pixel centroid, (0,0) = centre of the top-left pixel
   float area_px = 0;
   float radius_px = 0;     // equivalent-circle radius sqrt(area / pi)
-  float roundness = 0;     // 4*pi*area / perimeter^2 (1 = disc)
+  float roundness = 0;     // 4*pi*area / hull perimeter^2 (1 = disc), core/contour
   float confidence = 0;    // 0..1
 };
 

@@ -10,6 +10,7 @@ void RegionSetBase::Clear() {
   chain_used_ = 0;
   pixels_read_ = 0;
   overflows_ = 0;
+  dropped_small_ = 0;
   chain_exhausted_ = false;
   regions_exhausted_ = false;
 }
@@ -26,6 +27,42 @@ bool RegionSetBase::OnContour(const Region& r, int u, int v) const {
   }
   return false;
 }
+
+namespace {
+// Unit vectors at k * 22.5 deg, k = 0..7, Q12; the other 8 directions are their negatives.
+constexpr int32_t kDirCos[8] = {4096, 3784, 2896, 1567, 0, -1567, -2896, -3784};
+constexpr int32_t kDirSin[8] = {0, 1567, 2896, 3784, 4096, 3784, 2896, 1567};
+
+// Circumscribed 16-gon of the chain's boundary-pixel centres, grown by half a pixel (the pixels'
+// outer edge, as area_px counts whole pixels). Its perimeter is 2 tan(pi/16) times the sum of the
+// 16 support values (Cauchy; exact while every side is present, a slight overestimate otherwise).
+void HullShape(const uint8_t* codes, uint32_t len, Region& r) {
+  int32_t lo[8] = {}, hi[8] = {};
+  int32_t x = 0, y = 0;
+  for (uint32_t i = 0; i < len; ++i) {
+    x += kChainDu[codes[i]];
+    y += kChainDv[codes[i]];
+    for (int k = 0; k < 8; ++k) {
+      const int32_t p = x * kDirCos[k] + y * kDirSin[k];
+      lo[k] = p < lo[k] ? p : lo[k];
+      hi[k] = p > hi[k] ? p : hi[k];
+    }
+  }
+  int64_t sum = 0;
+  int32_t w_min = INT32_MAX, w_max = 0;
+  for (int k = 0; k < 8; ++k) {
+    const int32_t w = hi[k] - lo[k];
+    sum += w;
+    w_min = w < w_min ? w : w_min;
+    w_max = w > w_max ? w : w_max;
+  }
+  constexpr float kQ = 1.0f / 4096.0f;
+  const float perimeter = 0.39782473f * (static_cast<float>(sum) * kQ + 8.0f);  // +8: 16 x 0.5 px
+  r.hull_roundness =
+      std::min(1.0f, 4.0f * 3.14159265f * r.area_px / (perimeter * perimeter));
+  r.width_ratio = (static_cast<float>(w_min) * kQ + 1.0f) / (static_cast<float>(w_max) * kQ + 1.0f);
+}
+}  // namespace
 
 bool RegionSetBase::Trace(const YuyvImage& img, const ColorLut& lut, ColorClass cls, int u0, int v0,
                           Region& out) {
@@ -106,6 +143,7 @@ bool RegionSetBase::Trace(const YuyvImage& img, const ColorLut& lut, ColorClass 
       out.perimeter_px > 0.0f
           ? std::min(1.0f, 4.0f * 3.14159265f * area / (out.perimeter_px * out.perimeter_px))
           : 0.0f;
+  if (!out.hole && out.area_px >= kHullMinArea) HullShape(chain_ + out.chain_offset, len, out);
   return true;
 }
 
@@ -142,6 +180,11 @@ SeedOutcome RegionSetBase::TraceSeed(const YuyvImage& img, const ColorLut& lut, 
         chain_exhausted_ = true;
         ++overflows_;
         return SeedOutcome::kChainFull;
+      }
+      if (!r.hole && r.area_px < min_keep_area_) {
+        chain_used_ = chain_before;
+        ++dropped_small_;
+        return SeedOutcome::kTooSmall;
       }
       ++size_;
       if (!r.hole) return SeedOutcome::kNewRegion;

@@ -26,7 +26,15 @@ struct Region {
   float perimeter_px = 0;      // Vossepoel-Smeulders length estimate of the chain
   float cu_px = 0, cv_px = 0;  // centroid of the polygon
   float roundness = 0;         // 4*pi*polygon_area / perimeter^2, 1 for a disc, 0 for a line
+  // From the boundary's support in 16 directions (circumscribed 16-gon, ~ convex hull):
+  // 4*pi*area_px / hull_perimeter^2 and the narrowest / widest extent. Unlike `roundness` they
+  // barely move when the outline is ragged (blur, noise, a badly trained colour class); a line
+  // or an arc still scores low. Computed for outer regions of at least kHullMinArea pixels.
+  float hull_roundness = 0;
+  float width_ratio = 0;
 };
+
+inline constexpr float kHullMinArea = 8.0f;
 
 /// Freeman directions: 0 = +u, 2 = -v (up), 4 = -u, 6 = +v; odd codes are diagonals.
 inline constexpr int kChainDu[8] = {1, 1, 0, -1, -1, -1, 0, 1};
@@ -39,6 +47,7 @@ enum class SeedOutcome : uint8_t {
   kRegionsFull,    // region capacity reached (counted in overflows())
   kChainFull,      // chain-code pool exhausted (counted in overflows())
   kTooManyHoles,   // gave up after kMaxHoleHops holes between seed and outer contour
+  kTooSmall,       // traced, below min_keep_area: not kept (counted in dropped_small())
 };
 
 class RegionSetBase {
@@ -47,6 +56,9 @@ class RegionSetBase {
 
   /// Forgets all regions (start of a frame). Counters are reset too.
   void Clear();
+  /// Outer regions smaller than this (area_px) are forgotten right after tracing, so clutter
+  /// specks do not use up the capacity; a later seed in one traces it again (a short contour).
+  void set_min_keep_area(float area_px) { min_keep_area_ = area_px; }
   /// Finds the region of `cls` containing pixel (u, v) and traces its outer contour unless it was
   /// traced before. Never reads a pixel twice per boundary step more than the 8 neighbours.
   SeedOutcome TraceSeed(const YuyvImage& img, const ColorLut& lut, ColorClass cls, int u, int v);
@@ -57,6 +69,7 @@ class RegionSetBase {
   }
   uint32_t pixels_read() const { return pixels_read_; }
   uint32_t overflows() const { return overflows_; }
+  uint32_t dropped_small() const { return dropped_small_; }
   size_t capacity() const { return capacity_; }
 
  protected:
@@ -76,6 +89,8 @@ class RegionSetBase {
   size_t chain_used_ = 0;
   uint32_t pixels_read_ = 0;
   uint32_t overflows_ = 0;
+  uint32_t dropped_small_ = 0;
+  float min_keep_area_ = 0;
   bool chain_exhausted_ = false;
   bool regions_exhausted_ = false;
 };

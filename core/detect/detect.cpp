@@ -12,13 +12,16 @@ Status BallFinder::Init(const ScanlineTableBase& scanlines, const BallFinderConf
   }
   if (config.attention_samples < 0 || config.attention_samples > kMaxAttentionSamples ||
       !(config.min_roundness >= 0.0f && config.min_roundness <= 1.0f) ||
+      !(config.min_hull_roundness >= 0.0f && config.min_hull_roundness <= 1.0f) ||
+      !(config.min_width_ratio >= 0.0f && config.min_width_ratio <= 1.0f) ||
       !(config.min_area_px >= 1.0f) || config.prng_seed == 0) {
     return Status(StatusCode::kInvalidArgument,
-                  "BallFinder::Init: attention_samples > 256, roundness outside 0..1, "
+                  "BallFinder::Init: attention_samples > 256, a roundness or width ratio outside 0..1, "
                   "min_area < 1 or prng_seed 0");
   }
   scan_ = &scanlines;
   config_ = config;
+  regions_.set_min_keep_area(config.min_area_px);
   rng_ = config.prng_seed;
   return Status::Ok();
 }
@@ -141,7 +144,10 @@ Status BallFinder::Find(const YuyvImage& image, const ColorLut& lut, const Predi
       ++holes;
       continue;
     }
-    if (r.area_px < config_.min_area_px || r.roundness < config_.min_roundness) continue;
+    const bool clean = r.roundness >= config_.min_roundness;
+    const bool compact =
+        r.hull_roundness >= config_.min_hull_roundness && r.width_ratio >= config_.min_width_ratio;
+    if (r.area_px < config_.min_area_px || !(clean || compact)) continue;
     ++candidates;
     const bool in_field =
         config_.in_field == nullptr || config_.in_field(config_.in_field_context, r.cu_px, r.cv_px);
@@ -152,7 +158,7 @@ Status BallFinder::Find(const YuyvImage& image, const ColorLut& lut, const Predi
       const float du = r.cu_px - prediction->u_px, dv = r.cv_px - prediction->v_px;
       key = -(du * du + dv * dv);
     } else {
-      key = r.area_px * r.roundness * (0.2f + FieldContext(image, lut, r));
+      key = r.area_px * r.hull_roundness * (0.2f + FieldContext(image, lut, r));
       stats.pixels_read += kContextSamples;
     }
     if (best < 0 || (in_field && !best_in_field) || (in_field == best_in_field && key > best_key)) {
@@ -164,6 +170,7 @@ Status BallFinder::Find(const YuyvImage& image, const ColorLut& lut, const Predi
   stats.candidates = candidates;
   stats.holes = holes;
   stats.overflows = regions_.overflows();
+  stats.small = regions_.dropped_small();
   stats.pixels_read += stats.scan_pixels + attention_reads + regions_.pixels_read();
   if (best < 0) return Status::Ok();
 
@@ -174,10 +181,10 @@ Status BallFinder::Find(const YuyvImage& image, const ColorLut& lut, const Predi
   out.v_px = r.cv_px;
   out.area_px = r.area_px;
   out.radius_px = std::sqrt(r.area_px / 3.14159265f);
-  out.roundness = r.roundness;
+  out.roundness = r.hull_roundness;
   // Confidence: roundness, discounted when the field test failed or was unavailable, when other
   // candidates compete, and with distance from the prediction.
-  float conf = r.roundness;
+  float conf = r.hull_roundness;
   if (config_.in_field != nullptr && !best_in_field) conf *= 0.5f;
   if (candidates > 1) conf *= 1.0f / (1.0f + 0.25f * static_cast<float>(candidates - 1));
   if (prediction != nullptr && prediction->sigma_px > 0.0f) {

@@ -22,6 +22,7 @@ int LutUsage() {
       "                           [--shade MIN,MAX]  (brightness factors added per ball sample, "
       "0.55,1.30)\n"
       "       ballvision lut eval --lut LUT.bin [sources] [--center U,V] [--no-track] [--verbose]\n"
+      "                           [--regions]  (every traced region with its shape measures)\n"
       "                           [--annotate DIR]  (debug pictures of every evaluated frame)\n"
       "       ballvision lut show LUT.bin\n"
       "sources (repeatable):\n"
@@ -96,10 +97,15 @@ bool ParseArgs(int argc, char** argv, Args& a) {
   int every = 1, phase = 0;
   std::string split = "all";
   float cu = 314.2f, cv = 244.1f;  // reference rig mirror circle (render/README.md)
+  std::string pending;  // a source modifier no source has used yet
   for (int i = 2; i < argc; ++i) {
     const std::string k = argv[i];
     const bool has = i + 1 < argc;
     const std::string val = has ? argv[i + 1] : "";
+    if (k == "--regions") {
+      a.setup.dump_regions = true;
+      continue;
+    }
     if (k == "--verbose") {
       a.verbose = a.setup.verbose = true;
       continue;
@@ -123,16 +129,24 @@ bool ParseArgs(int argc, char** argv, Args& a) {
       omni = val == "omni" || val == "both";
       persp = val == "persp" || val == "both";
       if (!omni && !persp) return false;
-    } else if (k == "--every")
+      pending = k;
+    } else if (k == "--every") {
       every = std::max(1, std::atoi(val.c_str()));
-    else if (k == "--phase")
+      pending = k;
+    } else if (k == "--phase") {
       phase = std::atoi(val.c_str());
-    else if (k == "--sim")
+      pending = k;
+    } else if (k == "--sim") {
       a.sims.push_back({val, omni, persp, every, phase});
-    else if (k == "--split")
+      pending.clear();
+    } else if (k == "--split") {
+      if (val != "all" && val != "even" && val != "odd") return false;
       split = val;
-    else if (k == "--boxes")
+      pending = k;
+    } else if (k == "--boxes") {
       a.boxes.push_back({val, "", split});
+      pending.clear();
+    }
     else if (k == "--images") {
       if (a.boxes.empty()) return false;
       a.boxes.back().images = val;
@@ -174,6 +188,12 @@ bool ParseArgs(int argc, char** argv, Args& a) {
       std::fprintf(stderr, "ballvision lut: unknown option %s\n", k.c_str());
       return false;
     }
+  }
+  if (!pending.empty()) {
+    // Modifiers apply to the sources that follow them; a trailing one would be silently ignored.
+    std::fprintf(stderr, "ballvision lut: %s applies to the --sim/--boxes after it; none follows\n",
+                 pending.c_str());
+    return false;
   }
   a.setup.omni = ReferenceOmniScanConfig(cu, cv);
   a.setup.persp = ReferencePerspScanConfig();

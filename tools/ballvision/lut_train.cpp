@@ -211,6 +211,19 @@ float ToF(const std::string& s) { return s.empty() ? 0.0f : std::strtof(s.c_str(
 
 }  // namespace
 
+void PrintRegions(const BallFinder& finder) {
+  const auto regions = finder.regions().regions();
+  for (size_t i = 0; i < regions.size(); ++i) {
+    const Region& r = regions[i];
+    if (r.hole) continue;
+    std::printf(
+        "     %c region (%.1f, %.1f) area %.0f hull roundness %.2f width ratio %.2f chain "
+        "roundness %.2f bbox u %d..%d v %d..%d\n",
+        static_cast<int>(i) == finder.chosen_region() ? '*' : ' ', r.cu_px, r.cv_px, r.area_px,
+        r.hull_roundness, r.width_ratio, r.roundness, r.u_min, r.u_max, r.v_min, r.v_max);
+  }
+}
+
 bool LoadSimTruth(const std::string& dir, std::vector<SimTruth>& out, std::string& error) {
   std::ifstream in(dir + "/truth.csv");
   if (!in) {
@@ -359,6 +372,7 @@ bool EvalSim(const std::string& dir, Camera cam, const ColorLut& lut, const Find
           tr ? tr->visible[c] : 0, tr ? tr->cu[c] : 0.f, tr ? tr->cv[c] : 0.f,
           tr ? tr->area[c] : 0.f);
     }
+    if (setup.dump_regions) PrintRegions(*finder);
     const bool ball =
         tr != nullptr && tr->visible[c] && 2.0f * std::sqrt(tr->fullarea[c] / 3.14159f) >= 4.0f;
     if (ball) {
@@ -455,6 +469,36 @@ bool EvalBoxes(const std::vector<BoxImage>& images, const ColorLut& lut, const F
     if (det.found && !inside) ++out.false_det;
     if (!det.found && !bi.balls.empty()) ++out.missed;
     if (verbose) {
+      // Pixel-level view of the table (full frame, host only): how much of the ball's inscribed
+      // ellipse is ball-coloured, and how many ball-coloured pixels lie outside every box.
+      int in_ball = 0, in_total = 0, outside = 0;
+      const YuyvImage view = img.view();
+      for (int v = 0; v < img.height; ++v) {
+        for (int u = 0; u < img.width; ++u) {
+          const Yuv p = view.at(u, v);
+          const bool is_ball = lut.Classify(p.y, p.u, p.v) == ColorClass::kBall;
+          bool in_box = false, in_ellipse = false;
+          for (const auto& b : bi.balls) {
+            const float cu = 0.5f * (b.u0 + b.u1), cv = 0.5f * (b.v0 + b.v1);
+            const float du = (u - cu) / (0.5f * (b.u1 - b.u0) * 0.8f + 0.5f);
+            const float dv = (v - cv) / (0.5f * (b.v1 - b.v0) * 0.8f + 0.5f);
+            in_ellipse |= du * du + dv * dv <= 1.0f;
+            in_box |= u >= b.u0 - 4 && u <= b.u1 + 4 && v >= b.v0 - 4 && v <= b.v1 + 4;
+          }
+          if (in_ellipse) {
+            ++in_total;
+            in_ball += is_ball;
+          } else if (!in_box) {
+            outside += is_ball;
+          }
+        }
+      }
+      std::printf(
+          "  %s: ball px %.0f %% of box ellipse, %d outside boxes; seeds %u regions %u "
+          "candidates %u overflows %u\n",
+          bi.path.c_str(), in_total ? 100.0 * in_ball / in_total : 0.0, outside, stats.seeds,
+          stats.regions, stats.candidates, stats.overflows);
+      if (setup.dump_regions) PrintRegions(*finder);
       std::printf("  %s: balls %zu, %s (%.1f, %.1f) r=%.1f round=%.2f -> %s\n", bi.path.c_str(),
                   bi.balls.size(), det.found ? "found" : "none", det.u_px, det.v_px, det.radius_px,
                   det.roundness,

@@ -118,8 +118,12 @@ struct FinderSetup {
   BallFinderConfig finder;
   bool track = true;  // previous detection -> prediction (Monte-Carlo attention)
   bool verbose = false;
+  bool dump_regions = false;  // print every outer region of every frame (shape measures)
   std::string annotate_dir;  // when set, EvalSim writes one picture per frame there
 };
+
+/// Prints the outer regions of the finder's last Find ('*' = chosen).
+void PrintRegions(const BallFinder& finder);
 
 /// Runs the BallFinder over a rendered sequence (frames with index % every == phase).
 bool EvalSim(const std::string& dir, Camera cam, const ColorLut& lut, const FinderSetup& setup,
