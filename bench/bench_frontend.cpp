@@ -133,18 +133,12 @@ void BM_ScanClassify(benchmark::State& st, bool omni, bool warm) {
   uint32_t ball = 0;
   for (auto _ : st) {
     const YuyvImage img = View(frames[i++ % frames.size()]);
-    scan.ForEachRow([&](int v, int u, const uint8_t* dl, int n) {
-      const uint8_t* row = img.data + v * img.stride_bytes;
-      for (int k = 0; k < n; ++k) {
-        if (k > 0 && dl[k] == 0) {
-          u += 255;
-          continue;
-        }
-        u += dl[k];
-        const uint8_t* p = row + (u & ~1) * 2;
-        ball += d.lut->Classify(p[(u & 1) * 2], p[1], p[3]) == ColorClass::kBall;
-      }
-    });
+    const uint8_t* row = img.data;
+    scan.ForEachSample([&](int v) { row = img.data + v * img.stride_bytes; },
+                       [&](int u, bool) {
+                         const uint8_t* p = row + (u & ~1) * 2;
+                         ball += d.lut->Classify(p[(u & 1) * 2], p[1], p[3]) == ColorClass::kBall;
+                       });
     benchmark::DoNotOptimize(ball);
   }
   st.counters["pixels_read_pct"] = 100.0 * scan.pixel_count() / (kFrameWidth * kFrameHeight);
@@ -215,26 +209,20 @@ void BM_LutLayout(benchmark::State& st, int layout) {
   uint32_t acc = 0;
   for (auto _ : st) {
     const YuyvImage img = View(d.omni[i++ % d.omni.size()]);
-    d.omni_scan->ForEachRow([&](int v, int u, const uint8_t* dl, int n) {
-      const uint8_t* row = img.data + v * img.stride_bytes;
-      for (int k = 0; k < n; ++k) {
-        if (k > 0 && dl[k] == 0) {
-          u += 255;
-          continue;
-        }
-        u += dl[k];
-        const uint8_t* p = row + (u & ~1) * 2;
-        const uint8_t y = p[(u & 1) * 2], cu = p[1], cv = p[3];
-        if (layout == 0) {
-          acc += static_cast<uint32_t>(d.lut->Classify(y, cu, cv));
-        } else if (layout == 1) {
-          acc += ymask[y] & umask[cu] & vmask[cv];
-        } else {
-          const uint8_t c = uv[(cu >> 2) << 6 | (cv >> 2)];
-          acc += (y >= ylo[c] && y <= yhi[c]) ? c : 0;
-        }
-      }
-    });
+    const uint8_t* row = img.data;
+    d.omni_scan->ForEachSample([&](int v) { row = img.data + v * img.stride_bytes; },
+                               [&](int u, bool) {
+                                 const uint8_t* p = row + (u & ~1) * 2;
+                                 const uint8_t y = p[(u & 1) * 2], cu = p[1], cv = p[3];
+                                 if (layout == 0) {
+                                   acc += static_cast<uint32_t>(d.lut->Classify(y, cu, cv));
+                                 } else if (layout == 1) {
+                                   acc += ymask[y] & umask[cu] & vmask[cv];
+                                 } else {
+                                   const uint8_t c = uv[(cu >> 2) << 6 | (cv >> 2)];
+                                   acc += (y >= ylo[c] && y <= yhi[c]) ? c : 0;
+                                 }
+                               });
     benchmark::DoNotOptimize(acc);
   }
 }

@@ -104,8 +104,8 @@ TEST(ContourTest, HullRoundnessAndWidthRatio) {
   const float cx = 300.4f, cy = 240.6f, r = 25.0f;
   const std::vector<Case> cases = {
       {"disc", [&](int u, int v) { return std::hypot(u - cx, v - cy) <= r; }, 0.97f, 1.0f},
-      {"half disc", [&](int u, int v) { return std::hypot(u - cx, v - cy) <= r && u >= cx; },
-       0.73f, 0.5f},
+      {"half disc", [&](int u, int v) { return std::hypot(u - cx, v - cy) <= r && u >= cx; }, 0.73f,
+       0.5f},
       {"3:1 bar", [](int u, int v) { return u >= 250 && u < 340 && v >= 220 && v < 250; }, 0.59f,
        0.33f},
   };

@@ -76,7 +76,7 @@ TEST(DetectRealTest, RcjOrangeBallHeldOutHalf) {
   EXPECT_GE(e.hit, 6);  // 7 of 7 when written
   EXPECT_LE(e.false_det, 1);
   const auto f = TrainAndTest(boxes, dir, 1);
-  EXPECT_GE(f.hit, 5);  // 6 of 6 when written
+  EXPECT_GE(f.hit, 5);        // 6 of 6 when written
   EXPECT_LE(f.false_det, 4);  // 3 when written, all on the 'none' images
 }
 

@@ -10,9 +10,9 @@ struct BallDetection {
   bool found = false;
   float u_px = 0, v_px = 0;  // sub-pixel centroid, (0,0) = centre of the top-left pixel
   float area_px = 0;
-  float radius_px = 0;     // equivalent-circle radius sqrt(area / pi)
-  float roundness = 0;     // 4*pi*area / hull perimeter^2 (1 = disc), core/contour
-  float confidence = 0;    // 0..1
+  float radius_px = 0;   // equivalent-circle radius sqrt(area / pi)
+  float roundness = 0;   // 4*pi*area / hull perimeter^2 (1 = disc), core/contour
+  float confidence = 0;  // 0..1
 };
 
 enum class BallMode : uint8_t { kNone = 0, kRolling = 1, kFlying = 2, kBouncing = 3 };
@@ -23,21 +23,21 @@ const char* BallModeName(BallMode mode);
 enum BallFlags : uint16_t {
   kFlagSeenOmni = 1u << 0,
   kFlagSeenPersp = 1u << 1,
-  kFlagTriangulated = 1u << 2,      // both rays used
+  kFlagTriangulated = 1u << 2,        // both rays used
   kFlagOmniGroundFallback = 1u << 3,  // omni only: ball assumed on the floor
   kFlagPerspSizeFallback = 1u << 4,   // persp only: distance from apparent size
-  kFlagCoasting = 1u << 5,          // no measurement: prediction only
-  kFlagLost = 1u << 6,              // coasted too long; position invalid
-  kFlagRaysParallel = 1u << 7,      // rays nearly parallel, triangulation refused
-  kFlagOutlierRejected = 1u << 8,   // measurement rejected by the filter
-  kFlagOutOfField = 1u << 9,        // measurement far outside the field, rejected
-  kFlagBadTimestamp = 1u << 10,     // frame time not after the previous one; measurement ignored
-  kFlagHasBounce = 1u << 11,        // t_bounce_us / bounce_x_m / bounce_y_m valid
-  kFlagHasPrediction = 1u << 12,    // px/py/pz valid
+  kFlagCoasting = 1u << 5,            // no measurement: prediction only
+  kFlagLost = 1u << 6,                // coasted too long; position invalid
+  kFlagRaysParallel = 1u << 7,        // rays nearly parallel, triangulation refused
+  kFlagOutlierRejected = 1u << 8,     // measurement rejected by the filter
+  kFlagOutOfField = 1u << 9,          // measurement far outside the field, rejected
+  kFlagBadTimestamp = 1u << 10,       // frame time not after the previous one; measurement ignored
+  kFlagHasBounce = 1u << 11,          // t_bounce_us / bounce_x_m / bounce_y_m valid
+  kFlagHasPrediction = 1u << 12,      // px/py/pz valid
 };
 
 struct BallState {
-  uint64_t t_us = 0;  // exposure time of the frame pair
+  uint64_t t_us = 0;   // exposure time of the frame pair
   bool found = false;  // position valid (measured or coasting within bounds)
   float x_m = 0, y_m = 0, z_m = 0;
   float vx_mps = 0, vy_mps = 0, vz_mps = 0;

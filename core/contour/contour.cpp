@@ -58,8 +58,7 @@ void HullShape(const uint8_t* codes, uint32_t len, Region& r) {
   }
   constexpr float kQ = 1.0f / 4096.0f;
   const float perimeter = 0.39782473f * (static_cast<float>(sum) * kQ + 8.0f);  // +8: 16 x 0.5 px
-  r.hull_roundness =
-      std::min(1.0f, 4.0f * 3.14159265f * r.area_px / (perimeter * perimeter));
+  r.hull_roundness = std::min(1.0f, 4.0f * 3.14159265f * r.area_px / (perimeter * perimeter));
   r.width_ratio = (static_cast<float>(w_min) * kQ + 1.0f) / (static_cast<float>(w_max) * kQ + 1.0f);
 }
 }  // namespace

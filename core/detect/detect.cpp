@@ -15,9 +15,10 @@ Status BallFinder::Init(const ScanlineTableBase& scanlines, const BallFinderConf
       !(config.min_hull_roundness >= 0.0f && config.min_hull_roundness <= 1.0f) ||
       !(config.min_width_ratio >= 0.0f && config.min_width_ratio <= 1.0f) ||
       !(config.min_area_px >= 1.0f) || config.prng_seed == 0) {
-    return Status(StatusCode::kInvalidArgument,
-                  "BallFinder::Init: attention_samples > 256, a roundness or width ratio outside 0..1, "
-                  "min_area < 1 or prng_seed 0");
+    return Status(
+        StatusCode::kInvalidArgument,
+        "BallFinder::Init: attention_samples > 256, a roundness or width ratio outside 0..1, "
+        "min_area < 1 or prng_seed 0");
   }
   scan_ = &scanlines;
   config_ = config;
@@ -111,25 +112,23 @@ Status BallFinder::Find(const YuyvImage& image, const ColorLut& lut, const Predi
   const uint8_t* data = image.data;
   const int stride = image.stride_bytes;
   const ChromaBox box = config_.ball_box;
-  scan_->ForEachRow([&](int v, int u, const uint8_t* deltas, int n) {
-    const uint8_t* row = data + v * stride;
-    bool in_run = false;
-    for (int k = 0; k < n; ++k) {
-      if (k > 0 && deltas[k] == 0) {  // escape: gap > 255 px
-        u += 255;
-        in_run = false;
-        continue;
-      }
-      u += deltas[k];
-      const uint8_t* pair = row + (u & ~1) * 2;
-      // A fresh frame is cold in cache: fetch the rows below while this one is classified.
-      if (v + kPrefetchRows < image.height) __builtin_prefetch(pair + kPrefetchRows * stride);
-      const bool ball = box.Contains(pair[1], pair[3]) &&
-                        lut.Classify(pair[(u & 1) * 2], pair[1], pair[3]) == ColorClass::kBall;
-      if (ball && !in_run) Seed(image, lut, u, v, stats);
-      in_run = ball;
-    }
-  });
+  const uint8_t* row = data;
+  int row_v = 0;
+  bool in_run = false;
+  scan_->ForEachSample(
+      [&](int v) {
+        row = data + v * stride;
+        row_v = v;
+      },
+      [&](int u, bool restart) {
+        const uint8_t* pair = row + (u & ~1) * 2;
+        // A fresh frame is cold in cache: fetch the rows below while this one is classified.
+        if (row_v + kPrefetchRows < image.height) __builtin_prefetch(pair + kPrefetchRows * stride);
+        const bool ball = box.Contains(pair[1], pair[3]) &&
+                          lut.Classify(pair[(u & 1) * 2], pair[1], pair[3]) == ColorClass::kBall;
+        if (ball && (restart || !in_run)) Seed(image, lut, u, row_v, stats);
+        in_run = ball;
+      });
   stats.scan_pixels = scan_->pixel_count();
 
   // 3. Ball choice.

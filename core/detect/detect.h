@@ -48,8 +48,8 @@ struct BallFinderConfig {
   float min_roundness = 0.35f;
   float min_hull_roundness = 0.6f;
   float min_width_ratio = 0.5f;
-  float min_area_px = 10.0f;  // a 4 px disc covers ~12 px; smaller regions are not kept
-  int attention_samples = 64;   // N <= kMaxAttentionSamples
+  float min_area_px = 10.0f;   // a 4 px disc covers ~12 px; smaller regions are not kept
+  int attention_samples = 64;  // N <= kMaxAttentionSamples
   uint32_t prng_seed = 0x2545F491u;
   InFieldFn in_field = nullptr;  // optional
   void* in_field_context = nullptr;

@@ -66,14 +66,31 @@ class ScanlineTableBase {
   bool built() const { return pixels_ > 0; }
   size_t capacity() const { return capacity_; }
 
-  /// Calls fn(v, first_u, deltas, count) for every row with samples, top to bottom: the samples
-  /// of row v are u_0 = first_u, u_k = u_{k-1} + deltas[k] (deltas[0] is 0), increasing; an
-  /// entry 0 after the first is an escape: advance 255 and read nothing (gaps > 255 px).
-  template <typename Fn>
-  void ForEachRow(Fn&& fn) const {
+  /// The one decoder of the table, for every reader of it: top to bottom, row(v) once per row
+  /// with samples, then sample(u, restart) for each of its samples left to right; `restart` is
+  /// true for a row's first sample and after a gap of more than 255 px. Storage: per row the
+  /// first u, then one byte per sample, the step from the previous one; a 0 step after the first
+  /// is an escape (advance 255, read nothing). Inlined: the front end's hot loop.
+  template <typename RowFn, typename SampleFn>
+  void ForEachSample(RowFn&& row, SampleFn&& sample) const {
     for (int v = 0; v < height_; ++v) {
       const int n = row_start_[v + 1] - row_start_[v];
-      if (n > 0) fn(v, static_cast<int>(row_first_u_[v]), delta_ + row_start_[v], n);
+      if (n == 0) continue;
+      const uint8_t* d = delta_ + row_start_[v];
+      int u = row_first_u_[v];
+      row(v);
+      sample(u, true);
+      bool restart = false;
+      for (int k = 1; k < n; ++k) {
+        if (d[k] == 0) {
+          u += 255;
+          restart = true;
+          continue;
+        }
+        u += d[k];
+        sample(u, restart);
+        restart = false;
+      }
     }
   }
 
@@ -123,17 +140,8 @@ inline constexpr size_t kPerspScanLines = kPerspScanPixels;
 /// Calls fn(u, v) for every sample of the table, row-major.
 template <typename Fn>
 void ForEachScanPixel(const ScanlineTableBase& t, Fn&& fn) {
-  t.ForEachRow([&fn](int v, int u, const uint8_t* d, int n) {
-    fn(u, v);
-    for (int k = 1; k < n; ++k) {
-      if (d[k] == 0) {
-        u += 255;
-        continue;
-      }
-      u += d[k];
-      fn(u, v);
-    }
-  });
+  int row_v = 0;
+  t.ForEachSample([&row_v](int v) { row_v = v; }, [&](int u, bool) { fn(u, row_v); });
 }
 
 }  // namespace bv

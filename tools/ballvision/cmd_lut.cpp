@@ -97,7 +97,7 @@ bool ParseArgs(int argc, char** argv, Args& a) {
   int every = 1, phase = 0;
   std::string split = "all";
   float cu = 314.2f, cv = 244.1f;  // reference rig mirror circle (render/README.md)
-  std::string pending;  // a source modifier no source has used yet
+  std::string pending;             // a source modifier no source has used yet
   for (int i = 2; i < argc; ++i) {
     const std::string k = argv[i];
     const bool has = i + 1 < argc;
@@ -146,8 +146,7 @@ bool ParseArgs(int argc, char** argv, Args& a) {
     } else if (k == "--boxes") {
       a.boxes.push_back({val, "", split});
       pending.clear();
-    }
-    else if (k == "--images") {
+    } else if (k == "--images") {
       if (a.boxes.empty()) return false;
       a.boxes.back().images = val;
       a.boxes.back().split = split;

@@ -119,7 +119,7 @@ struct FinderSetup {
   bool track = true;  // previous detection -> prediction (Monte-Carlo attention)
   bool verbose = false;
   bool dump_regions = false;  // print every outer region of every frame (shape measures)
-  std::string annotate_dir;  // when set, EvalSim writes one picture per frame there
+  std::string annotate_dir;   // when set, EvalSim writes one picture per frame there
 };
 
 /// Prints the outer regions of the finder's last Find ('*' = chosen).
