@@ -399,44 +399,45 @@ class MainLoopCommandsTest : public MainLoopTest {
       }
     }
   }
+  // The rule LUT serialised: what the upload tests send.
+  std::span<uint8_t> RuleLutBlob() {
+    cli::FillRuleLut(lut_);
+    const Result<size_t> n = SerializeLut(lut_, lut_blob_);
+    EXPECT_TRUE(n.ok());
+    return {lut_blob_, n.ok() ? *n : 0};
+  }
   uint8_t upload_[kUploadBufferBytes] = {};
   uint32_t cmd_seq_ = 0;
+  ColorLut lut_;
+  uint8_t lut_blob_[kColorLutBlobBytes] = {};
 };
 
 TEST_F(MainLoopCommandsTest, LutUploadIsVerifiedSavedAndActivated) {
   Start();
-  static ColorLut lut;
-  cli::FillRuleLut(lut);
-  static uint8_t blob[kColorLutBlobBytes];
-  const Result<size_t> n = SerializeLut(lut, blob);
-  ASSERT_TRUE(n.ok());
-  const std::span<const uint8_t> b(blob, *n);
+  const std::span<const uint8_t> b = RuleLutBlob();
+  ASSERT_FALSE(b.empty());
   Upload(protocol::UploadTarget::kLut, b, Crc32(b));
   Drain();
   int acks, errors, statuses;
   uint8_t code = 0;
   Replies(acks, errors, statuses, code);
   EXPECT_EQ(errors, 0);
-  EXPECT_EQ(acks,
-            static_cast<int>(2 + (*n + protocol::kMaxChunkBytes - 1) / protocol::kMaxChunkBytes));
+  EXPECT_EQ(acks, static_cast<int>(2 + (b.size() + protocol::kMaxChunkBytes - 1) /
+                                           protocol::kMaxChunkBytes));
   EXPECT_EQ(loop_->status().lut_state, static_cast<uint8_t>(protocol::BlobState::kOk));
-  EXPECT_EQ(loop_->status().lut_id, lut.Id());
+  EXPECT_EQ(loop_->status().lut_id, lut_.Id());
   // Persisted: a fresh loop over the same storage loads it at boot.
   MainLoop reboot(camera_, uart_, clock_, storage_, scratch_);
   ASSERT_TRUE(reboot.Init().ok());
-  EXPECT_EQ(reboot.status().lut_id, lut.Id());
+  EXPECT_EQ(reboot.status().lut_id, lut_.Id());
 }
 
 TEST_F(MainLoopCommandsTest, CorruptUploadIsRefusedAndNothingChanges) {
   Start();
-  static ColorLut lut;
-  cli::FillRuleLut(lut);
-  static uint8_t blob[kColorLutBlobBytes];
-  const Result<size_t> n = SerializeLut(lut, blob);
-  ASSERT_TRUE(n.ok());
-  const std::span<const uint8_t> b(blob, *n);
+  const std::span<uint8_t> b = RuleLutBlob();
+  ASSERT_FALSE(b.empty());
   Upload(protocol::UploadTarget::kLut, b, Crc32(b) ^ 1u);  // transfer CRC wrong
-  blob[100] = 200;  // a class value that does not exist, with a matching transfer CRC
+  b[100] = 200;  // a class value that does not exist, with a matching transfer CRC
   Upload(protocol::UploadTarget::kLut, b, Crc32(b));
   Drain();
   int acks, errors, statuses;
