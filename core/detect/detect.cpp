@@ -114,16 +114,18 @@ Status BallFinder::Find(const YuyvImage& image, const ColorLut& lut, const Predi
   const ChromaBox box = config_.ball_box;
   const uint8_t* row = data;
   int row_v = 0;
+  bool prefetch = false;
   bool in_run = false;
   scan_->ForEachSample(
       [&](int v) {
         row = data + v * stride;
         row_v = v;
+        prefetch = v + kPrefetchRows < image.height;
       },
       [&](int u, bool restart) {
         const uint8_t* pair = row + (u & ~1) * 2;
         // A fresh frame is cold in cache: fetch the rows below while this one is classified.
-        if (row_v + kPrefetchRows < image.height) __builtin_prefetch(pair + kPrefetchRows * stride);
+        if (prefetch) __builtin_prefetch(pair + kPrefetchRows * stride);
         const bool ball = box.Contains(pair[1], pair[3]) &&
                           lut.Classify(pair[(u & 1) * 2], pair[1], pair[3]) == ColorClass::kBall;
         if (ball && (restart || !in_run)) Seed(image, lut, u, row_v, stats);

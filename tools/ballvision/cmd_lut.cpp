@@ -168,7 +168,6 @@ bool ParseArgs(int argc, char** argv, Args& a) {
       if (std::sscanf(val.c_str(), "%f,%f", &cu, &cv) != 2) return false;
     } else if (k == "--teach") {
       Teach t;
-      const size_t c1 = val.rfind(':');
       // IMG:U,V[:CLASS[:TOL]] — parse from the right.
       std::vector<std::string> parts;
       size_t start = 0;
@@ -177,7 +176,6 @@ bool ParseArgs(int argc, char** argv, Args& a) {
         start = p + 1;
       }
       parts.push_back(val.substr(start));
-      (void)c1;
       if (parts.size() < 2 || std::sscanf(parts[1].c_str(), "%d,%d", &t.u, &t.v) != 2) return false;
       t.image = parts[0];
       if (parts.size() > 2 && !ParseClass(parts[2], t.cls)) return false;
