@@ -69,10 +69,22 @@ Result<Ray> OmniRay(const OmniCalibration& cal, float u_px, float v_px) {
   return out;
 }
 
-BallFinderConfig WithField(BallFinderConfig config, InFieldFn fn, void* self) {
-  config.in_field = fn;
-  config.in_field_context = self;
-  return config;
+// Feature rays out to where the distance map ends in its shortest direction (farther line
+// points cannot be put on the floor), 3 px steps near the robot (a line is >= 8 px wide there)
+// down to 1 px at the far end (1-3 px wide at 3-6 m). 64 rays keep the pair under 5 % of its
+// pixels (measured: +3.8 k table samples on the reference rig).
+OmniFeatureRays FeatureRays(const OmniCalibration& cal, const OmniScanConfig& scan,
+                            const PipelineConfig& config) {
+  float end = scan.outer_radius_px;
+  for (int d = 0; d < OmniCalibration::kDirections; ++d) {
+    end = std::min(end, cal.support_px[d][OmniCalibration::kEdges - 1] - 1.0f);
+  }
+  OmniFeatureRays f;
+  f.rays = config.feature_rays;
+  f.end_radius_px = std::max(end, scan.inner_radius_px + 2.0f);
+  f.step_inner_px = 3.0f;
+  f.step_outer_px = 1.0f;
+  return f;
 }
 
 }  // namespace
@@ -82,39 +94,97 @@ Status Pipeline::SetRobotPose(const RobotPose& pose) {
     return Status(StatusCode::kInvalidArgument, "pipeline: robot pose not finite");
   }
   pose_ = pose;
+  if (pose.known && features_ready_) {
+    PoseHint hint;
+    hint.has_pose = true;
+    hint.x_m = pose.x_m;
+    hint.y_m = pose.y_m;
+    hint.heading_rad = pose.heading_rad;
+    BV_TRY(localiser_.SetHint(hint));
+  }
   return Status();
 }
 
-bool Pipeline::InField(float x_m, float y_m) const {
-  if (!pose_.known) return true;
-  // Robot +x is (sin h, -cos h) in the field, robot +y is (cos h, sin h).
-  const float s = std::sin(pose_.heading_rad), c = std::cos(pose_.heading_rad);
-  const float fx = pose_.x_m + x_m * s + y_m * c;
-  const float fy = pose_.y_m - x_m * c + y_m * s;
-  const FieldConfig& f = config_.field;
-  return std::fabs(fx) <= f.half_length_m + f.margin_m &&
-         std::fabs(fy) <= f.half_width_m + f.margin_m;
+Status Pipeline::SetFieldHalf(int8_t half) {
+  PoseHint hint;
+  hint.half = half;
+  return localiser_.SetHint(hint);
 }
 
-bool Pipeline::OmniInField(void* self, float u_px, float v_px) {
-  const auto* p = static_cast<const Pipeline*>(self);
-  if (!p->pose_.known) return true;
+Status Pipeline::SetOdometry(float dx_m, float dy_m, float dheading_rad) {
+  if (!std::isfinite(dx_m) || !std::isfinite(dy_m) || !std::isfinite(dheading_rad) ||
+      std::fabs(dx_m) > 2.0f || std::fabs(dy_m) > 2.0f || std::fabs(dheading_rad) > 3.2f) {
+    return Status(StatusCode::kInvalidArgument, "pipeline: odometry not finite or > 2 m / frame");
+  }
+  odometry_[0] = dx_m;
+  odometry_[1] = dy_m;
+  odometry_[2] = dheading_rad;
+  odometry_pending_ = true;
+  return Status();
+}
+
+bool Pipeline::FieldPose(RobotPose& pose, float& sigma_m) const {
+  const PoseEstimate& e = localiser_.pose();
+  if (features_ready_ && e.usable() &&
+      std::max(e.sigma_x_m, e.sigma_y_m) <= config_.localiser.usable_sigma_m) {
+    pose.known = true;
+    pose.x_m = e.x_m;
+    pose.y_m = e.y_m;
+    pose.heading_rad = e.heading_rad;
+    sigma_m = std::max(e.sigma_x_m, e.sigma_y_m);
+    return true;
+  }
+  pose = pose_;
+  sigma_m = 0.0f;
+  return pose_.known;
+}
+
+bool Pipeline::InField(float x_m, float y_m) const {
+  RobotPose pose;
+  float sigma = 0;
+  if (!FieldPose(pose, sigma)) return true;
+  // Robot +x is (sin h, -cos h) in the field, robot +y is (cos h, sin h).
+  const float s = std::sin(pose.heading_rad), c = std::cos(pose.heading_rad);
+  const float fx = pose.x_m + x_m * s + y_m * c;
+  const float fy = pose.y_m - x_m * c + y_m * s;
+  const FieldConfig& f = config_.field;
+  const float margin = f.margin_m + 2.0f * sigma;
+  return std::fabs(fx) <= 0.5f * f.length_m + margin && std::fabs(fy) <= 0.5f * f.width_m + margin;
+}
+
+// The ray meets the floor beyond the ball; a ball on the floor has its centre at height r, so
+// the floor point scales by (f_O - r) / f_O. (A ball in the air is nearer still; its apparent
+// size does not tell it apart reliably in the mirror image, measured on the rendered sets: a
+// floor ball's equivalent radius is 1.1-4x a simple model's.)
+bool Pipeline::OmniField::Inside(float u_px, float v_px, float) const {
+  const RigCalibration& cal = *p->calibration_;
   float x = 0, y = 0;
   // Beyond the distance map the floor point is unknown: no verdict, not "outside".
-  if (!OmniPixelToGround(p->calibration_->omni, u_px, v_px, x, y).ok()) return true;
-  return p->InField(x, y);
+  if (!OmniPixelToGround(cal.omni, u_px, v_px, x, y).ok()) return true;
+  const float f_o = cal.omni.viewpoint_z_m, r = cal.ball_radius_m;
+  const float k = f_o > r ? (f_o - r) / f_o : 1.0f;
+  return p->InField(x * k, y * k);
 }
 
-bool Pipeline::PerspInField(void* self, float u_px, float v_px) {
-  const auto* p = static_cast<const Pipeline*>(self);
-  if (!p->pose_.known) return true;
-  const Result<Ray> ray = PerspPixelToRay(p->calibration_->persp, u_px, v_px);
-  if (!ray.ok()) return true;
-  // The ray meets the plane of a ball centre on the floor only if it points down enough.
+// Persp: two estimates of where the ball is: the ray on the plane of a floor ball's centre (too
+// far for a ball in the air) and the range from the apparent size (too far for a ball partly
+// hidden). The ball is at or before both, so it counts as outside only when both are outside.
+bool Pipeline::PerspField::Inside(float u_px, float v_px, float radius_px) const {
+  const RigCalibration& cal = *p->calibration_;
+  // A ball cut by the image border looks smaller, hence farther: no verdict.
+  if (u_px - radius_px < 1.0f || v_px - radius_px < 1.0f ||
+      u_px + radius_px > static_cast<float>(cal.persp.width_px) - 2.0f ||
+      v_px + radius_px > static_cast<float>(cal.persp.height_px) - 2.0f) {
+    return true;
+  }
+  const Result<Ray> ray = PerspPixelToRay(cal.persp, u_px, v_px);
+  const Result<Ray> rim = PerspPixelToRay(cal.persp, u_px + radius_px, v_px);
+  if (!ray.ok() || !rim.ok() || !(radius_px > 1.0f)) return true;
+  const auto q = PointFromApparentSize(*ray, AngleBetween(ray->dir, rim->dir), cal.ball_radius_m);
+  if (!q.ok() || p->InField(q->x(), q->y())) return true;
   const float dz = ray->dir.z();
-  const float h = p->calibration_->ball_radius_m - ray->origin.z();
-  if (dz > -1e-3f) return true;
-  const float t = h / dz;
+  if (dz > -1e-3f) return true;  // at or above the camera: never meets the floor-ball plane
+  const float t = (cal.ball_radius_m - ray->origin.z()) / dz;
   return p->InField(ray->origin.x() + t * ray->dir.x(), ray->origin.y() + t * ray->dir.y());
 }
 
@@ -129,20 +199,32 @@ Status Pipeline::Init(const RigCalibration& calibration, const ColorLut& lut,
   config_ = config;
   config_.filter.ball_radius_m = calibration.ball_radius_m;
   config_.finder.ball_box = lut.Bounds(ColorClass::kBall);
+  features_ready_ = false;
+  BV_TRY(field_model_.Init(config_.field));
   if (calibration.omni.valid) {
-    const OmniScanConfig scan =
+    OmniScanConfig scan =
         ReferenceOmniScanConfig(calibration.omni.center_u, calibration.omni.center_v);
     omni_outer_radius_px_ = scan.outer_radius_px;
+    if (config_.field_features) scan.features = FeatureRays(calibration.omni, scan, config_);
     BV_TRY(omni_scan_.BuildOmni(scan, kFrameWidth, kFrameHeight));
+    if (config_.field_features) {
+      FieldFeatureConfig fc = config_.features;
+      fc.line_width_m = config_.field.line_width_m;
+      BV_TRY(extractor_.Init(scan, calibration.omni, fc));
+      BV_TRY(localiser_.Init(&field_model_, config_.localiser));
+      features_ready_ = true;
+    }
     BallFinderConfig finder = config_.finder;
-    if (finder.in_field == nullptr) finder = WithField(finder, &Pipeline::OmniInField, this);
+    omni_field_.p = this;
+    if (finder.field == nullptr) finder.field = &omni_field_;
     BV_TRY(omni_finder_.Init(omni_scan_, finder));
   }
   if (calibration.persp.valid) {
     BV_TRY(persp_scan_.BuildPersp(ReferencePerspScanConfig(), calibration.persp.width_px,
                                   calibration.persp.height_px));
     BallFinderConfig finder = config_.finder;
-    if (finder.in_field == nullptr) finder = WithField(finder, &Pipeline::PerspInField, this);
+    persp_field_.p = this;
+    if (finder.field == nullptr) finder.field = &persp_field_;
     BV_TRY(persp_finder_.Init(persp_scan_, finder));
   }
   filter_.Configure(config_.filter);
@@ -199,6 +281,7 @@ BallDetection Pipeline::Detect(BallFinder& finder, const YuyvImage& img,
   stats_.pixels_read += fs.pixels_read;
   stats_.regions_traced += fs.regions;
   stats_.overflows += fs.overflows;
+  stats_.out_of_field_rejected += fs.outside_field;
   if (!st.ok()) {
     ++stats_.frame_errors;
     det = BallDetection{};
@@ -220,11 +303,28 @@ Status Pipeline::Process(const FrameInput& in, BallState& out) {
   // 1. Prediction for this exposure -> image positions (attention, ball choice).
   Predict(in.t_us);
 
-  // 2. Front end per camera present.
+  // 2. Field features and the robot's pose first: this frame's ball choice uses them.
+  stats_.feature_lookups = stats_.out_of_field_rejected = 0;
+  if (features_ready_ && in.omni.valid()) {
+    if (extractor_.Extract(in.omni, *lut_, features_).ok()) {
+      localiser_.Update(features_, in.t_us, odometry_pending_ ? odometry_ : nullptr);
+    } else {
+      ++stats_.frame_errors;
+    }
+    odometry_pending_ = false;
+    stats_.feature_lookups = features_.lookups;
+  }
+  RobotPose field_pose;
+  float pose_sigma = 0;
+  const bool have_field_pose = FieldPose(field_pose, pose_sigma);
+  omni_finder_.set_reject_outside(have_field_pose);
+  persp_finder_.set_reject_outside(have_field_pose);
+
+  // 3. Front end per camera present.
   if (in.omni.valid() && cal.omni.valid) out.omni = Detect(omni_finder_, in.omni, pred_omni_);
   if (in.persp.valid() && cal.persp.valid) out.persp = Detect(persp_finder_, in.persp, pred_persp_);
 
-  // 3. Rays. A ball cut by the mirror rim or the image border has a biased centroid and size:
+  // 4. Rays. A ball cut by the mirror rim or the image border has a biased centroid and size:
   // it is reported (seen) but not used for 3D.
   Ray ray_o, ray_p;
   bool have_o = false, have_p = false;
@@ -261,7 +361,7 @@ Status Pipeline::Process(const FrameInput& in, BallState& out) {
   filter_.FillState(in.t_us, 0, probe);
   const bool have_pred = probe.found && filter_.StateAt(in.t_us, p_pred, v_pred, mode_pred);
 
-  // 4. Triangulation, or a one-camera fallback.
+  // 5. Triangulation, or a one-camera fallback.
   BallMeasurement m;
   m.t_us = in.t_us;
   bool have_m = false;
@@ -309,7 +409,7 @@ Status Pipeline::Process(const FrameInput& in, BallState& out) {
     }
   }
 
-  // 5. Filter, then the state at the exposure time and the prediction.
+  // 6. Filter, then the state at the exposure time and the prediction.
   if (have_m) {
     const uint16_t f = filter_.Update(m);
     meas_.valid = true;
@@ -320,6 +420,14 @@ Status Pipeline::Process(const FrameInput& in, BallState& out) {
     out.flags |= f;
   }
   filter_.FillState(in.t_us, config_.predict_ahead_us, out);
+  // A track that the pose puts outside the field was locked on something else (a spare ball
+  // behind the goal line): drop it, so the next frame chooses afresh.
+  if (have_field_pose && out.found && !InField(out.x_m, out.y_m)) {
+    filter_.Reset();
+    ++stats_.tracks_dropped_out_of_field;
+    out.found = false;
+    out.flags |= kFlagOutOfField | kFlagLost;
+  }
   return Status();
 }
 

@@ -11,6 +11,9 @@
 #include "core/common/image.h"
 #include "core/common/status.h"
 #include "core/detect/detect.h"
+#include "core/field/features.h"
+#include "core/field/field_model.h"
+#include "core/field/localise.h"
 #include "core/scanline/scanline.h"
 #include "core/triangulation/triangulation.h"
 
@@ -18,16 +21,9 @@ namespace bv {
 
 class ColorLut;
 
-/// The playing field, for the ball choice's "inside the field" rule (paper IV-A): a region whose
-/// ground point lies inside is favoured over one outside (a red shirt behind the goal line).
-struct FieldConfig {
-  float half_length_m = 9.0f;  // MSL field 18 x 12 m
-  float half_width_m = 6.0f;
-  float margin_m = 0.3f;  // a ball on or just over the line still counts as inside
-};
-
-/// The robot's pose in the field, from the main computer's self-localisation. Field frame:
-/// origin at the centre spot, metres; heading = field angle (CCW from +X) of the robot's +y.
+/// A pose sent by the main computer (its own localisation). Field frame: origin at the centre
+/// spot, metres; heading = field angle (CCW from +X) of the robot's +y. It seeds the
+/// coprocessor's own localisation, and is used directly while that has no usable pose.
 struct RobotPose {
   bool known = false;  // without a pose there is no field test
   float x_m = 0, y_m = 0, heading_rad = 0;
@@ -39,7 +35,13 @@ struct PipelineConfig {
   TriangulationConfig triangulation;
   float max_ray_gap_m = 0.4f;  // larger: the two detections are not the same ball
   BallFinderConfig finder;     // ball choice and attention (core/detect), both cameras
+  // The field (configuration, stored with the calibration) for the in-field rule and the
+  // self-localisation from the omni camera's line points (core/field).
   FieldConfig field;
+  bool field_features = true;  // line points, obstacles, localisation
+  int feature_rays = 64;       // power of two; part of the omni scan table
+  FieldFeatureConfig features;
+  LocaliserConfig localiser;
 };
 
 struct FrameInput {
@@ -55,6 +57,9 @@ struct PipelineStats {
   uint32_t overflows = 0;
   uint32_t frame_errors = 0;           // images the front end refused (size, stride)
   uint32_t rejected_measurements = 0;  // cumulative: filter rejections (outlier, field, time)
+  uint32_t feature_lookups = 0;        // LUT lookups of the field-feature pass (scan-table pixels)
+  uint32_t out_of_field_rejected = 0;  // ball candidates refused by the pose (this frame)
+  uint32_t tracks_dropped_out_of_field = 0;  // cumulative
 };
 
 /// Where the prediction for the current frame falls in each image (attention, ball choice).
@@ -96,18 +101,39 @@ class Pipeline {
   /// The predicted image positions used for the last frame (annotation, tests).
   const ImagePrediction& omni_prediction() const { return pred_omni_; }
   const ImagePrediction& persp_prediction() const { return pred_persp_; }
-  /// Updates the robot's field pose (takes effect from the next frame). Non-finite values are
-  /// refused with kInvalidArgument and the old pose kept.
+  /// A pose from the main computer (takes effect from the next frame): seeds the localiser and is
+  /// used while the localiser has no usable pose. Non-finite values are refused with
+  /// kInvalidArgument and the old pose kept.
   Status SetRobotPose(const RobotPose& pose);
   const RobotPose& robot_pose() const { return pose_; }
-  /// True if the robot-frame floor point is inside the field, or if that cannot be told (no pose).
+  /// Which half the robot is in (sign of its field x; 0 = unknown): resolves the field's symmetry.
+  Status SetFieldHalf(int8_t half);
+  /// Odometry for the next frame (robot motion since the last frame: dx, dy in the old robot
+  /// frame, dheading); used once.
+  Status SetOdometry(float dx_m, float dy_m, float dheading_rad);
+  /// True if the robot-frame floor point is inside the field, or if that cannot be told (no
+  /// usable pose: the rule switches itself off rather than reject the real ball).
   bool InField(float x_m, float y_m) const;
+  /// The pose the in-field rule uses (own localisation, else the main computer's), if any.
+  bool FieldPose(RobotPose& pose, float& sigma_m) const;
+  const FieldFeatures& features() const { return features_; }
+  const PoseEstimate& localisation() const { return localiser_.pose(); }
+  const FieldModel& field_model() const { return field_model_; }
 
  private:
   BallDetection Detect(BallFinder& finder, const YuyvImage& img, const ImagePrediction& pred);
-  // BallFinder field predicates: image point -> floor point (ball centre height) -> field test.
-  static bool OmniInField(void* self, float u_px, float v_px);
-  static bool PerspInField(void* self, float u_px, float v_px);
+  // BallFinder field predicates: image region -> the nearest ball position it can be -> field
+  // test (no verdict when the ball may be in the air above a point inside).
+  struct OmniField final : FieldPredicate {
+    const Pipeline* p = nullptr;
+    bool Inside(float u_px, float v_px, float radius_px) const override;
+  };
+  struct PerspField final : FieldPredicate {
+    const Pipeline* p = nullptr;
+    bool Inside(float u_px, float v_px, float radius_px) const override;
+  };
+  OmniField omni_field_;
+  PerspField persp_field_;
   void Predict(uint64_t t_us);
 
   const RigCalibration* calibration_ = nullptr;
@@ -123,6 +149,13 @@ class Pipeline {
   MeasurementInfo meas_;
   float omni_outer_radius_px_ = 1e9f;  // mirror rim in the image (scan table geometry)
   RobotPose pose_;
+  FieldModel field_model_;
+  FieldFeatureExtractor extractor_;
+  Localiser localiser_;
+  FieldFeatures features_;
+  bool features_ready_ = false;
+  float odometry_[3] = {};
+  bool odometry_pending_ = false;
 };
 
 }  // namespace bv

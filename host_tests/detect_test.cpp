@@ -168,10 +168,12 @@ TEST(DetectTest, ChoosesRoundThenInFieldThenNearestPrediction) {
     EXPECT_NEAR(d.u_px, 420, 0.2);  // nearest the prediction
   }
   {
+    struct RightOf300 final : FieldPredicate {
+      bool Inside(float u, float, float) const override { return u > 300; }
+    };
+    static const RightOf300 field;
     BallFinderConfig cfg;
-    cfg.in_field = [](void* ctx, float u, float) { return u > *static_cast<float*>(ctx); };
-    static float limit = 300;
-    cfg.in_field_context = &limit;
+    cfg.field = &field;
     Omni o(cfg);
     BallDetection d;
     FrontEndStats s;

@@ -149,9 +149,14 @@ Status BallFinder::Find(const YuyvImage& image, const ColorLut& lut, const Predi
     const bool compact =
         r.hull_roundness >= config_.min_hull_roundness && r.width_ratio >= config_.min_width_ratio;
     if (r.area_px < config_.min_area_px || !(clean || compact)) continue;
-    ++candidates;
     const bool in_field =
-        config_.in_field == nullptr || config_.in_field(config_.in_field_context, r.cu_px, r.cv_px);
+        config_.field == nullptr ||
+        config_.field->Inside(r.cu_px, r.cv_px, std::sqrt(r.area_px / 3.14159265f));
+    if (!in_field && reject_outside_) {
+      ++stats.outside_field;
+      continue;
+    }
+    ++candidates;
     // Prefer: inside the field, then nearest the prediction, else the largest round region
     // with field colour around it (a ball on the carpet; cheap: 16 lookups on a ring).
     float key;
@@ -186,7 +191,7 @@ Status BallFinder::Find(const YuyvImage& image, const ColorLut& lut, const Predi
   // Confidence: roundness, discounted when the field test failed or was unavailable, when other
   // candidates compete, and with distance from the prediction.
   float conf = r.hull_roundness;
-  if (config_.in_field != nullptr && !best_in_field) conf *= 0.5f;
+  if (config_.field != nullptr && !best_in_field) conf *= 0.5f;
   if (candidates > 1) conf *= 1.0f / (1.0f + 0.25f * static_cast<float>(candidates - 1));
   if (prediction != nullptr && prediction->sigma_px > 0.0f) {
     const float d2 = -best_key / (9.0f * prediction->sigma_px * prediction->sigma_px);

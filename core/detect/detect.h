@@ -33,11 +33,20 @@ struct FrontEndStats {
   uint32_t small = 0;              // outer contours traced but below min_area_px (not kept)
   uint32_t candidates = 0;         // regions passing area and roundness
   uint32_t overflows = 0;          // region or chain capacity reached (regions were skipped)
+  uint32_t outside_field = 0;      // candidates refused as outside the field (reject mode)
 };
 
-/// True if the ground point under image point (u, v) is inside the playing field. Supplied by
-/// the caller (image-to-ground map from the calibration + robot pose from the main computer).
-using InFieldFn = bool (*)(void* context, float u_px, float v_px);
+/// Tells whether an image region lies inside the playing field. Supplied by the caller, who has
+/// the calibration and the robot's field pose; `radius_px` (the region's equivalent radius) lets
+/// it tell a ball in the air, whose ray meets the floor far beyond it, from one on the floor.
+/// True when it cannot tell.
+class FieldPredicate {
+ public:
+  virtual bool Inside(float u_px, float v_px, float radius_px) const = 0;
+
+ protected:
+  ~FieldPredicate() = default;
+};
 
 struct BallFinderConfig {
   // Shape test, either of two (core/contour): a clean outline with chain-code roundness >=
@@ -51,8 +60,7 @@ struct BallFinderConfig {
   float min_area_px = 10.0f;   // a 4 px disc covers ~12 px; smaller regions are not kept
   int attention_samples = 64;  // N <= kMaxAttentionSamples
   uint32_t prng_seed = 0x2545F491u;
-  InFieldFn in_field = nullptr;  // optional
-  void* in_field_context = nullptr;
+  const FieldPredicate* field = nullptr;  // optional; must outlive the finder
   // ColorLut::Bounds(kBall) of the LUT passed to Find: scanline pixels outside it are rejected
   // without a table lookup. The default box rejects nothing.
   ChromaBox ball_box;
@@ -79,6 +87,9 @@ class BallFinder {
   int16_t attention_u(int i) const { return attention_u_[i]; }
   int16_t attention_v(int i) const { return attention_v_[i]; }
   int chosen_region() const { return chosen_; }  // index into regions(), -1 if none
+  /// While on, a candidate the in-field predicate calls outside is refused, not just disfavoured
+  /// (the caller turns it on only while it trusts its field pose).
+  void set_reject_outside(bool on) { reject_outside_ = on; }
 
  private:
   uint32_t NextRandom();
@@ -92,6 +103,7 @@ class BallFinder {
   int16_t attention_v_[kMaxAttentionSamples] = {};
   int attention_count_ = 0;
   int chosen_ = -1;
+  bool reject_outside_ = false;
 };
 
 }  // namespace bv

@@ -40,6 +40,33 @@ float AngleDiffDeg(float a, float b) {
 
 }  // namespace
 
+int OmniFeatureRadii(const OmniScanConfig& c, float* radii, int capacity) {
+  const OmniFeatureRays& f = c.features;
+  if (f.rays == 0) return 0;
+  if (f.rays < 0 || f.rays > OmniFeatureRays::kMaxRays || (f.rays & (f.rays - 1)) != 0 ||
+      !(f.step_inner_px >= 1.0f) || !(f.step_outer_px >= 1.0f) ||
+      !(f.end_radius_px > c.inner_radius_px) || !(f.end_radius_px <= c.outer_radius_px)) {
+    return -1;
+  }
+  int n = 0;
+  const float span = f.end_radius_px - c.inner_radius_px;
+  for (float r = c.inner_radius_px; r <= f.end_radius_px + 1e-4f;) {
+    if (n >= capacity || n >= OmniFeatureRays::kMaxRadii) return -1;
+    radii[n++] = r;
+    const float t = (r - c.inner_radius_px) / span;
+    r += std::max(1.0f, std::round(f.step_inner_px + t * (f.step_outer_px - f.step_inner_px)));
+  }
+  return n;
+}
+
+bool OmniFeatureRayBlocked(const OmniScanConfig& c, int ray) {
+  const float angle_deg = 360.0f * static_cast<float>(ray) / static_cast<float>(c.features.rays);
+  for (int s = 0; s < c.strut_count; ++s) {
+    if (AngleDiffDeg(angle_deg, c.struts[s].angle_deg) <= c.struts[s].half_width_deg) return true;
+  }
+  return false;
+}
+
 float DiameterProfile::At(float x) const {
   if (count <= 0) return 0.0f;
   if (x <= at_px[0]) return diameter_px[0];
@@ -140,6 +167,7 @@ struct Band {
 // Row buffer for the build (start-up only).
 constexpr int kMaxRowSamples = 2048;  // 4 KB .bss, start-up only
 uint16_t g_row[kMaxRowSamples];
+float g_feature_radii[OmniFeatureRays::kMaxRadii];  // start-up only
 
 }  // namespace
 
@@ -248,11 +276,36 @@ Status ScanlineTableBase::BuildOmni(const OmniScanConfig& c, int width, int heig
     }
   };
 
+  const int n_radii = OmniFeatureRadii(c, g_feature_radii, OmniFeatureRays::kMaxRadii);
+  if (n_radii < 0) {
+    return Status(StatusCode::kInvalidArgument,
+                  "BuildOmni: feature rays not a power of two <= 128 or bad radii/steps");
+  }
+  // Feature-ray samples of row v (the same rounding as core/field's reader).
+  const auto add_feature_samples = [&](int v, int& n, bool& overflow) {
+    for (int i = 0; i < c.features.rays && !overflow; ++i) {
+      if (OmniFeatureRayBlocked(c, i)) continue;
+      const float a = 2 * kPi * static_cast<float>(i) / static_cast<float>(c.features.rays);
+      const float cs = std::cos(a), sn = std::sin(a);
+      for (int k = 0; k < n_radii; ++k) {
+        int su, sv;
+        OmniSamplePixel(c, cs, sn, g_feature_radii[k], su, sv);
+        if (sv != v || su < 0 || su >= width) continue;
+        if (n >= kMaxRowSamples) {
+          overflow = true;
+          return;
+        }
+        g_row[n++] = static_cast<uint16_t>(su);
+      }
+    }
+  };
+
   width_ = width;
   height_ = height;
   for (int v = 0; v < height; ++v) {
     int n = 0;
     bool overflow = false;
+    add_feature_samples(v, n, overflow);
     for_each_line([&](float cs, float sn, float r_start, float r_end) {
       const float va = c.center_v + r_start * sn, vb = c.center_v + r_end * sn;
       if (v < std::min(va, vb) - 1.0f || v > std::max(va, vb) + 1.0f) return;

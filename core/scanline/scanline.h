@@ -6,6 +6,7 @@
 //   persp: a brick lattice of rows (alternate rows shifted by half a step).
 // Spacing follows the smallest ball diameter expected at each radius (or row band): every disc
 // of that diameter has the centre of at least one scan pixel inside it (host_tests/scanline_test).
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <span>
@@ -29,6 +30,19 @@ struct StrutSector {
   float half_width_deg = 0;  // lines within this half width are not scanned
 };
 
+/// Dense radial lines for the field features (core/field): `rays` lines at equal angles (a power
+/// of two, so they coincide with radial lines of the ball pattern), sampled from the inner radius
+/// out to `end_radius_px` with a step that grows linearly from `step_inner_px` to `step_outer_px`
+/// (rounded to whole pixels). Their samples join the table, so the ball front end and the feature
+/// extractor read the same pixels; rays = 0 adds nothing.
+struct OmniFeatureRays {
+  static constexpr int kMaxRays = 128;
+  static constexpr int kMaxRadii = 192;
+  int rays = 0;
+  float end_radius_px = 0;
+  float step_inner_px = 2.0f, step_outer_px = 1.0f;
+};
+
 struct OmniScanConfig {
   static constexpr int kMaxStruts = 4;
   float center_u = 0, center_v = 0;  // from OmniCalibration::center_u/v
@@ -38,7 +52,19 @@ struct OmniScanConfig {
   int strut_count = 0;
   DiameterProfile diameter;  // default when count == 0: 4 px everywhere
   float margin_px = 0.5f;    // rounding allowance in the spacing rule
+  OmniFeatureRays features;
 };
+
+/// The sample radii of every feature ray (px from the centre, increasing). Returns the count, or
+/// -1 if the ray set is invalid (rays not a power of two <= kMaxRays, more than kMaxRadii radii).
+int OmniFeatureRadii(const OmniScanConfig& config, float* radii, int capacity);
+/// True if feature ray i's angle (2 pi i / rays, image angle, v down) lies in a strut wedge.
+bool OmniFeatureRayBlocked(const OmniScanConfig& config, int ray);
+/// The pixel of radius r on the line at image angle (cs, sn): the rounding every reader shares.
+inline void OmniSamplePixel(const OmniScanConfig& c, float cs, float sn, float r, int& u, int& v) {
+  u = static_cast<int>(std::floor(c.center_u + 0.5f + r * cs));
+  v = static_cast<int>(std::floor(c.center_v + 0.5f + r * sn));
+}
 
 struct PerspScanConfig {
   DiameterProfile diameter;          // over image rows; default when count == 0: 8 px everywhere

@@ -11,5 +11,6 @@ int CmdCalibrate(int argc, char** argv);  // cmd_calibrate.cpp
 int CmdCalib(int argc, char** argv);      // cmd_calib.cpp: convert JSON <-> blob, show
 int CmdListen(int argc, char** argv);     // cmd_listen.cpp
 int CmdSeq(int argc, char** argv);        // cmd_seq.cpp: inspect / convert captured sequences
+int CmdEvalField(int argc, char** argv);  // cmd_field.cpp: pose, lines, obstacles vs truth
 
 }  // namespace bv::cli

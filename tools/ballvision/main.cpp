@@ -16,6 +16,7 @@ constexpr Command kCommands[] = {
     {"demo", bv::cli::CmdDemo, "run the full pipeline on a built-in synthetic sequence"},
     {"run", bv::cli::CmdRun, "SEQ --calib FILE [--out states.csv] [--predict-ms N]"},
     {"eval", bv::cli::CmdEval, "SEQ --calib FILE: compare with truth.csv, print error tables"},
+    {"eval-field", bv::cli::CmdEvalField, "SEQ --calib FILE: pose, line points, obstacles, ball"},
     {"lut", bv::cli::CmdLut, "train | eval | show: colour lookup tables"},
     {"calibrate", bv::cli::CmdCalibrate, "persp | omni: calibrate a camera"},
     {"calib", bv::cli::CmdCalib, "to-blob | to-json | show: convert the calibration file"},

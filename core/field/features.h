@@ -1,0 +1,96 @@
+#pragma once
+// Field features from the omni camera's feature rays (paper IV-A: "we use the same scanlines to
+// detect all other objects of interest"): the rays are part of the omni scan table
+// (OmniScanConfig::features), so this reads pixels the ball front end also reads, in radial
+// order, through the same LUT classes.
+//   line points: a white (kLine) run between green (kField) samples; its centre as a floor point
+//                (robot frame), its width along the ray as a check against the line width;
+//   obstacles:   the first dark (kObstacle) run that starts on green; foot point = its inner
+//                edge; adjacent rays merge into one obstacle whose angular edges are refined by
+//                bisection between rays; centre and radius of the footprint from foot distance
+//                and angular width.
+// Fixed capacities; what does not fit is counted, never dropped silently.
+#include <cstdint>
+
+#include "core/calibration/calibration.h"
+#include "core/color_lut/color_lut.h"
+#include "core/common/image.h"
+#include "core/common/status.h"
+#include "core/scanline/scanline.h"
+
+namespace bv {
+
+struct LinePoint {
+  float x_m = 0, y_m = 0;  // robot frame, floor
+  float width_m = 0;       // white run's length along the ray
+  uint8_t ray = 0;         // feature ray index (neighbourhood for the heading estimate)
+};
+
+struct Obstacle {
+  float x_m = 0, y_m = 0;  // footprint centre, robot frame
+  float radius_m = 0;      // footprint radius
+  float foot_m = 0;        // distance of the nearest point (foot) from the robot centre
+  float bearing_rad = 0;   // robot frame, CCW from +x, of the centre
+  float half_width_rad = 0;
+};
+
+struct FieldFeatureConfig {
+  float line_width_m = 0.125f;
+  float min_width_factor = 0.3f;  // white run length along the ray: [0.3, 4] x line width
+  float max_width_factor = 4.0f;
+  float max_line_range_m = 6.0f;      // farther line points are too coarse to be useful
+  float max_obstacle_range_m = 6.0f;  // foot points beyond are not reported
+  int min_obstacle_samples = 3;       // dark samples in a row before it counts
+  float obstacle_merge_m = 0.6f;      // adjacent-ray feet closer than this: one obstacle
+};
+
+struct FieldFeatures {
+  static constexpr int kMaxLinePoints = 128;  // ~40 seen per frame with 64 rays
+  static constexpr int kMaxObstacles = 16;
+  LinePoint lines[kMaxLinePoints];
+  int line_count = 0;
+  uint32_t lines_dropped = 0;  // found but over capacity (counted, not kept)
+  Obstacle obstacles[kMaxObstacles];
+  int obstacle_count = 0;
+  uint32_t obstacles_dropped = 0;
+  uint32_t lookups = 0;  // LUT lookups of this pass (the pixels are the scan table's)
+};
+
+class FieldFeatureExtractor {
+ public:
+  /// `scan` must be the OmniScanConfig the omni scan table was built from (features.rays > 0);
+  /// `calibration` must outlive the extractor.
+  /// Errors: kInvalidArgument (no feature rays or bad ray set), kFailedPrecondition (omni
+  /// calibration not valid).
+  Status Init(const OmniScanConfig& scan, const OmniCalibration& calibration,
+              const FieldFeatureConfig& config);
+  bool ready() const { return ready_; }
+  /// Extracts line points and obstacles. Errors: kFailedPrecondition (not initialised),
+  /// kInvalidArgument (image size differs from the calibration's frame size / null data).
+  Status Extract(const YuyvImage& omni, const ColorLut& lut, FieldFeatures& out);
+  int rays() const { return scan_.features.rays; }
+  int radii() const { return n_radii_; }
+
+ private:
+  struct RayHit {
+    float foot_r = -1;  // image radius of the obstacle foot, < 0: none on this ray
+    float foot_m = 0;
+  };
+  void ScanRay(const YuyvImage& img, const ColorLut& lut, int ray, FieldFeatures& out);
+  void AddLinePoint(float r_in, float r_out, float cs, float sn, int ray, FieldFeatures& out);
+  void MergeObstacles(const YuyvImage& img, const ColorLut& lut, FieldFeatures& out);
+  bool DarkAt(const YuyvImage& img, const ColorLut& lut, float angle, float r, FieldFeatures& out);
+  float RefineEdge(const YuyvImage& img, const ColorLut& lut, float in_angle, float out_angle,
+                   float r, FieldFeatures& out);
+  bool Ground(float u, float v, float& x, float& y) const;
+
+  OmniScanConfig scan_;
+  const OmniCalibration* cal_ = nullptr;
+  FieldFeatureConfig config_;
+  bool ready_ = false;
+  float radii_[OmniFeatureRays::kMaxRadii] = {};
+  int n_radii_ = 0;
+  RayHit hits_[OmniFeatureRays::kMaxRays] = {};
+};
+
+}  // namespace bv

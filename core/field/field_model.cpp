@@ -1,0 +1,166 @@
+#include "core/field/field_model.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace bv {
+namespace {
+
+constexpr float kPi = 3.14159265358979f;
+
+bool Positive(float v) { return std::isfinite(v) && v > 0.0f; }
+bool NonNegative(float v) { return std::isfinite(v) && v >= 0.0f; }
+
+float WrapTwoPi(float a) {
+  while (a < 0.0f) a += 2.0f * kPi;
+  while (a >= 2.0f * kPi) a -= 2.0f * kPi;
+  return a;
+}
+
+}  // namespace
+
+Status ValidateFieldConfig(const FieldConfig& f) {
+  const auto bad = [](const char* what) { return Status(StatusCode::kInvalidArgument, what); };
+  if (!Positive(f.length_m) || !Positive(f.width_m) || f.length_m > 40.0f || f.width_m > 30.0f) {
+    return bad("field: length and width must be > 0 and at most 40 x 30 m");
+  }
+  if (!Positive(f.line_width_m) || f.line_width_m > 0.5f) {
+    return bad("field: line_width_m must be in (0, 0.5]");
+  }
+  if (!NonNegative(f.center_circle_radius_m) ||
+      2.0f * f.center_circle_radius_m > std::min(f.length_m, f.width_m)) {
+    return bad("field: centre circle radius negative or the circle leaves the field");
+  }
+  if (!Positive(f.penalty_area_depth_m) || !Positive(f.penalty_area_width_m) ||
+      f.penalty_area_width_m > f.width_m || f.penalty_area_depth_m >= 0.5f * f.length_m) {
+    return bad("field: penalty area not positive, wider than the field or deeper than half");
+  }
+  if (!Positive(f.goal_area_depth_m) || !Positive(f.goal_area_width_m) ||
+      f.goal_area_width_m > f.penalty_area_width_m ||
+      f.goal_area_depth_m > f.penalty_area_depth_m) {
+    return bad("field: goal area not positive or larger than the penalty area");
+  }
+  if (!NonNegative(f.penalty_mark_distance_m) || f.penalty_mark_distance_m >= 0.5f * f.length_m) {
+    return bad("field: penalty mark distance negative or beyond the halfway line");
+  }
+  if (!NonNegative(f.corner_arc_radius_m) ||
+      f.corner_arc_radius_m > 0.5f * std::min(f.length_m, f.width_m)) {
+    return bad("field: corner arc radius negative or larger than half the field");
+  }
+  if (!Positive(f.goal_width_m) || f.goal_width_m > f.width_m) {
+    return bad("field: goal width not positive or wider than the field");
+  }
+  if (!NonNegative(f.border_m) || f.border_m > 5.0f || !NonNegative(f.margin_m) ||
+      f.margin_m > 2.0f) {
+    return bad("field: border_m must be in [0, 5] and margin_m in [0, 2]");
+  }
+  return Status::Ok();
+}
+
+void FieldModel::Add(uint8_t kind, float a, float b, float c, float d) {
+  if (count_ < kMaxPrimitives) prims_[count_++] = Primitive{kind, a, b, c, d};
+}
+
+Status FieldModel::Init(const FieldConfig& f) {
+  ready_ = false;
+  count_ = 0;
+  BV_TRY(ValidateFieldConfig(f));
+  config_ = f;
+  const float hl = 0.5f * f.length_m, hw = 0.5f * f.width_m;
+  // The quadrant x >= 0, y >= 0; the other three are its mirror images.
+  Add(0, 0.0f, hw, hl, hw);      // touchline
+  Add(0, hl, 0.0f, hl, hw);      // goal line
+  Add(0, 0.0f, 0.0f, 0.0f, hw);  // halfway line
+  if (f.center_circle_radius_m > 0.0f) Add(1, 0.0f, 0.0f, f.center_circle_radius_m, 0.0f);
+  const float px = hl - f.penalty_area_depth_m, py = 0.5f * f.penalty_area_width_m;
+  Add(0, px, 0.0f, px, py);
+  Add(0, px, py, hl, py);
+  const float gx = hl - f.goal_area_depth_m, gy = 0.5f * f.goal_area_width_m;
+  Add(0, gx, 0.0f, gx, gy);
+  Add(0, gx, gy, hl, gy);
+  if (f.corner_arc_radius_m > 0.0f) Add(1, hl, hw, f.corner_arc_radius_m, kPi);
+  if (f.penalty_mark_distance_m > 0.0f) Add(2, hl - f.penalty_mark_distance_m, 0.0f, 0.0f, 0.0f);
+
+  const float ex = hl + f.border_m + 0.5f, ey = hw + f.border_m + 0.5f;
+  cell_m_ = std::max({0.1f, ex / kMaxCellsX, ey / kMaxCellsY});
+  cells_x_ = std::min(kMaxCellsX, static_cast<int>(std::ceil(ex / cell_m_)));
+  cells_y_ = std::min(kMaxCellsY, static_cast<int>(std::ceil(ey / cell_m_)));
+  for (int j = 0; j < cells_y_; ++j) {
+    for (int i = 0; i < cells_x_; ++i) {
+      const float x = (static_cast<float>(i) + 0.5f) * cell_m_;
+      const float y = (static_cast<float>(j) + 0.5f) * cell_m_;
+      float best = 1e9f, gx0, gy0;
+      for (int k = 0; k < count_; ++k) {
+        const float d = PrimitiveDistance(prims_[k], x, y, gx0, gy0);
+        if (d < best) {
+          best = d;
+          uint8_t& cell = nearest_[j][i >> 1];
+          const unsigned shift = (i & 1) * 4u;
+          cell = static_cast<uint8_t>((cell & ~(0x0Fu << shift)) |
+                                      (static_cast<unsigned>(k) << shift));
+        }
+      }
+    }
+  }
+  ready_ = true;
+  return Status::Ok();
+}
+
+float FieldModel::PrimitiveDistance(const Primitive& p, float x, float y, float& gx,
+                                    float& gy) const {
+  float qx = p.a, qy = p.b;  // nearest point of the primitive
+  if (p.kind == 0) {
+    const float dx = p.c - p.a, dy = p.d - p.b;
+    const float len2 = dx * dx + dy * dy;
+    const float t =
+        len2 > 0.0f ? std::clamp(((x - p.a) * dx + (y - p.b) * dy) / len2, 0.0f, 1.0f) : 0.0f;
+    qx = p.a + t * dx;
+    qy = p.b + t * dy;
+  } else if (p.kind == 1) {
+    const float rx = x - p.a, ry = y - p.b;
+    const float ang = WrapTwoPi(std::atan2(ry, rx) - p.d);
+    float a = p.d;
+    if (ang <= 0.5f * kPi) {
+      a += ang;
+    } else if (ang > 1.25f * kPi) {  // nearer the start end
+      a += 0.0f;
+    } else {
+      a += 0.5f * kPi;
+    }
+    qx = p.a + p.c * std::cos(a);
+    qy = p.b + p.c * std::sin(a);
+  }
+  const float ex = x - qx, ey = y - qy;
+  const float d = std::sqrt(ex * ex + ey * ey);
+  if (d > 1e-6f) {
+    gx = ex / d;
+    gy = ey / d;
+  } else {
+    gx = gy = 0.0f;
+  }
+  return d;
+}
+
+float FieldModel::Distance(float x_m, float y_m, float& gx, float& gy) const {
+  const float sx = x_m < 0.0f ? -1.0f : 1.0f, sy = y_m < 0.0f ? -1.0f : 1.0f;
+  const float ax = std::fabs(x_m), ay = std::fabs(y_m);
+  if (!(ax < 1e3f) || !(ay < 1e3f)) {  // NaN or absurd: far from every line, no pull
+    gx = gy = 0.0f;
+    return 1e3f;
+  }
+  int i = static_cast<int>(ax / cell_m_), j = static_cast<int>(ay / cell_m_);
+  i = std::clamp(i, 0, cells_x_ - 1);
+  j = std::clamp(j, 0, cells_y_ - 1);
+  const int k = (nearest_[j][i >> 1] >> ((i & 1) * 4)) & 0x0F;
+  const float d = PrimitiveDistance(prims_[k], ax, ay, gx, gy);
+  gx *= sx;
+  gy *= sy;
+  return d;
+}
+
+bool FieldModel::Inside(float x_m, float y_m, float margin_m) const {
+  return std::fabs(x_m) <= 0.5f * config_.length_m + margin_m &&
+         std::fabs(y_m) <= 0.5f * config_.width_m + margin_m;
+}
+
+}  // namespace bv

@@ -1,0 +1,387 @@
+// `ballvision eval-field`: the field figures of a captured sequence against its truth.csv (the
+// robot's field pose, the ball's image centroids) and, when given, the other robots' positions:
+// pose error and time to converge, line-point distance to the true lines, obstacle recall and
+// centre error within 5 m, ball recall and false balls per camera, 3D error.
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/field/field_model.h"
+#include "core/pipeline.h"
+#include "hal/host/sequence.h"
+#include "tools/ballvision/calib_io.h"
+#include "tools/ballvision/commands.h"
+#include "tools/ballvision/run_common.h"
+#include "tools/ballvision/run_pipeline.h"
+
+namespace bv::cli {
+namespace {
+
+constexpr double kPi = 3.14159265358979;
+constexpr double kObstacleRangeM = 5.0;
+constexpr double kObstacleHitM = 0.3;
+
+struct FieldArgs {
+  std::string seq, calib, lut, robots;
+  int half = 0;
+  bool help = false, per_frame = false, stills = false, no_field = false;
+};
+
+bool ParseFieldArgs(int argc, char** argv, FieldArgs& a, std::string& err) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string k = argv[i];
+    const bool has_value = i + 1 < argc;
+    if (k == "--help" || k == "-h") {
+      a.help = true;
+    } else if (k == "--per-frame") {
+      a.per_frame = true;
+    } else if (k == "--stills") {
+      a.stills = true;
+    } else if (k == "--no-field") {
+      a.no_field = true;
+    } else if (k == "--calib" || k == "--lut" || k == "--robots" || k == "--half") {
+      if (!has_value) {
+        err = k + " needs a value";
+        return false;
+      }
+      const std::string v = argv[++i];
+      if (k == "--calib") a.calib = v;
+      if (k == "--lut") a.lut = v;
+      if (k == "--robots") a.robots = v;
+      if (k == "--half") {
+        if (v != "1" && v != "-1" && v != "+1" && v != "0") {
+          err = "--half must be -1, 0 or 1, not '" + v + "'";
+          return false;
+        }
+        a.half = std::stoi(v);
+      }
+    } else if (!k.empty() && k[0] == '-') {
+      err = "unknown option " + k;
+      return false;
+    } else if (a.seq.empty()) {
+      a.seq = k;
+    } else {
+      err = "unexpected argument " + k;
+      return false;
+    }
+  }
+  return true;
+}
+
+struct TruthRow {
+  double rx = 0, ry = 0, rh_deg = 0;
+  bool has_pose = false;
+  bool has_ball = false;
+  double bx = 0, by = 0, bz = 0;
+  bool vis[2] = {false, false};
+  bool proj[2] = {false, false};
+  double cu[2] = {0, 0}, cv[2] = {0, 0}, area[2] = {0, 0};
+};
+
+bool LoadTruth(const std::string& path, std::map<uint64_t, TruthRow>& out, std::string& err) {
+  CsvTable t;
+  if (!ReadCsv(path, t, err)) return false;
+  for (const auto& row : t.rows) {
+    double ts;
+    if (!Field(row, "t_us", ts)) continue;
+    TruthRow r;
+    r.has_pose = Field(row, "robot_field_x", r.rx) && Field(row, "robot_field_y", r.ry) &&
+                 Field(row, "robot_field_heading_deg", r.rh_deg);
+    r.has_ball =
+        Field(row, "ball_x", r.bx) && Field(row, "ball_y", r.by) && Field(row, "ball_z", r.bz);
+    const char* cams[2] = {"omni", "persp"};
+    for (int c = 0; c < 2; ++c) {
+      double v = 0;
+      r.vis[c] = Field(row, std::string("visible_") + cams[c], v) && v > 0.5;
+      r.proj[c] = Field(row, std::string("u_") + cams[c], v);
+      Field(row, std::string("cu_") + cams[c], r.cu[c]);
+      Field(row, std::string("cv_") + cams[c], r.cv[c]);
+      Field(row, std::string("area_") + cams[c], r.area[c]);
+    }
+    out[static_cast<uint64_t>(ts)] = r;
+  }
+  if (out.empty()) {
+    err = path + ": no rows with t_us";
+    return false;
+  }
+  return true;
+}
+
+struct RobotTruth {
+  double x, y, radius;
+};
+
+bool LoadRobots(const std::string& path, std::map<int64_t, std::vector<RobotTruth>>& out,
+                std::string& err) {
+  CsvTable t;
+  if (!ReadCsv(path, t, err)) return false;
+  for (const auto& row : t.rows) {
+    double i, x, y, r;
+    if (!Field(row, "index", i) || !Field(row, "x", x) || !Field(row, "y", y) ||
+        !Field(row, "radius", r)) {
+      err = path + ": a row without index, x, y, radius";
+      return false;
+    }
+    out[static_cast<int64_t>(i)].push_back({x, y, r});
+  }
+  return true;
+}
+
+double AngleDiff(double a, double b) {
+  double d = std::fmod(a - b, 2 * kPi);
+  if (d > kPi) d -= 2 * kPi;
+  if (d < -kPi) d += 2 * kPi;
+  return d;
+}
+
+// Robot frame -> field frame with a pose (heading = field angle of robot +y).
+void ToField(double px, double py, double ph, double x, double y, double& fx, double& fy) {
+  fx = px + x * std::sin(ph) + y * std::cos(ph);
+  fy = py - x * std::cos(ph) + y * std::sin(ph);
+}
+
+struct Figures {
+  std::vector<double> pose_xy, pose_h_deg;  // after the first second
+  double converge_s = -1;
+  int frames = 0, frames_pose_usable = 0, ambiguous_frames = 0;
+  std::vector<double> line_d;
+  int robots_in_range = 0, robots_found = 0, obstacles = 0, obstacles_false = 0;
+  std::vector<double> obstacle_err;
+  int ball_vis[2] = {0, 0}, ball_found[2] = {0, 0}, ball_false[2] = {0, 0};
+  std::vector<double> centre_err[2];
+  std::vector<double> err3d;
+  int state_found = 0, state_false = 0;
+  double max_feature_lookups = 0, sum_feature_lookups = 0;
+  int line_points_max = 0;
+  double sum_line_points = 0;
+};
+
+void ScorePose(const PoseEstimate& p, const TruthRow& t, double t_s, Figures& f) {
+  if (!t.has_pose) return;
+  if (p.ambiguous) ++f.ambiguous_frames;
+  if (!p.usable()) return;
+  ++f.frames_pose_usable;
+  const double th = t.rh_deg * kPi / 180.0;
+  double dxy = std::hypot(p.x_m - t.rx, p.y_m - t.ry);
+  double dh = std::fabs(AngleDiff(p.heading_rad, th));
+  if (p.ambiguous) {  // either twin is a correct answer while the symmetry is unresolved
+    const double dxy2 = std::hypot(-p.x_m - t.rx, -p.y_m - t.ry);
+    const double dh2 = std::fabs(AngleDiff(p.heading_rad + kPi, th));
+    if (dxy2 < dxy) {
+      dxy = dxy2;
+      dh = dh2;
+    }
+  }
+  if (f.converge_s < 0 && dxy < 0.2 && dh < 5 * kPi / 180) f.converge_s = t_s;
+  if (t_s >= 1.0) {
+    f.pose_xy.push_back(dxy);
+    f.pose_h_deg.push_back(dh * 180 / kPi);
+  }
+}
+
+void ScoreLines(const FieldFeatures& ff, const FieldModel& model, const TruthRow& t, Figures& f) {
+  if (!t.has_pose) return;
+  const double th = t.rh_deg * kPi / 180.0;
+  for (int i = 0; i < ff.line_count; ++i) {
+    double fx, fy;
+    ToField(t.rx, t.ry, th, ff.lines[i].x_m, ff.lines[i].y_m, fx, fy);
+    float gx, gy;
+    f.line_d.push_back(model.Distance(static_cast<float>(fx), static_cast<float>(fy), gx, gy));
+      std::fprintf(stderr, "LP %f %f %f %f\n", ff.lines[i].x_m, ff.lines[i].y_m, f.line_d.back(),
+                   ff.lines[i].width_m);
+  }
+  f.line_points_max = std::max(f.line_points_max, ff.line_count);
+  f.sum_line_points += ff.line_count;
+}
+
+void ScoreObstacles(const FieldFeatures& ff, const std::vector<RobotTruth>& robots, Figures& f) {
+  for (const auto& r : robots) {
+    if (std::hypot(r.x, r.y) > kObstacleRangeM) continue;
+    ++f.robots_in_range;
+    double best = 1e9;
+    for (int i = 0; i < ff.obstacle_count; ++i) {
+      best = std::min(best, std::hypot(ff.obstacles[i].x_m - r.x, ff.obstacles[i].y_m - r.y));
+    }
+    if (best <= kObstacleHitM) {
+      ++f.robots_found;
+      f.obstacle_err.push_back(best);
+    }
+  }
+  for (int i = 0; i < ff.obstacle_count; ++i) {
+    const Obstacle& o = ff.obstacles[i];
+    if (std::hypot(o.x_m, o.y_m) > kObstacleRangeM) continue;
+    ++f.obstacles;
+    bool near = false;
+    for (const auto& r : robots) near |= std::hypot(o.x_m - r.x, o.y_m - r.y) <= 2 * kObstacleHitM;
+    f.obstacles_false += !near;
+  }
+}
+
+void ScoreBall(const BallState& s, const TruthRow& t, Figures& f) {
+  const BallDetection* det[2] = {&s.omni, &s.persp};
+  for (int c = 0; c < 2; ++c) {
+    const bool found = det[c]->found;
+    const double tol = std::max(3.0, 1.5 * std::sqrt(std::max(t.area[c], 1.0) / kPi));
+    const double e = std::hypot(det[c]->u_px - t.cu[c], det[c]->v_px - t.cv[c]);
+    const bool on_ball = found && t.proj[c] && t.area[c] > 0 && e <= tol;
+    if (t.vis[c]) {
+      ++f.ball_vis[c];
+      if (on_ball) {
+        ++f.ball_found[c];
+        f.centre_err[c].push_back(e);
+      }
+    }
+    if (found && !on_ball) ++f.ball_false[c];
+  }
+  if (s.found) {
+    ++f.state_found;
+    if (t.has_ball) {
+      const double e = std::sqrt((s.x_m - t.bx) * (s.x_m - t.bx) + (s.y_m - t.by) * (s.y_m - t.by) +
+                                 (s.z_m - t.bz) * (s.z_m - t.bz));
+      f.err3d.push_back(e);
+      f.state_false += e > 0.5;
+    } else {
+      ++f.state_false;
+    }
+  }
+}
+
+void PrintFigures(const Figures& f, bool have_robots) {
+  const auto pct = [](int a, int b) { return b > 0 ? 100.0 * a / b : 0.0; };
+  std::printf("frames                    %d\n", f.frames);
+  std::printf("pose usable               %d frames; ambiguous (symmetry unresolved) %d\n",
+              f.frames_pose_usable, f.ambiguous_frames);
+  if (f.converge_s >= 0) {
+    std::printf("converged (0.2 m, 5 deg)  at t = %.3f s from an unknown start\n", f.converge_s);
+  } else {
+    std::printf("converged                 never\n");
+  }
+  if (!f.pose_xy.empty()) {
+    std::printf(
+        "pose error after 1 s      median %.3f m / %.2f deg, p90 %.3f m / %.2f deg (%zu frames)\n",
+        Median(f.pose_xy), Median(f.pose_h_deg), Percentile(f.pose_xy, 0.9),
+        Percentile(f.pose_h_deg, 0.9), f.pose_xy.size());
+  }
+  if (!f.line_d.empty()) {
+    std::printf(
+        "line points               %zu (mean %.1f, max %d per frame); distance to the true "
+        "lines median %.3f m, p90 %.3f m\n",
+        f.line_d.size(), f.sum_line_points / std::max(1, f.frames), f.line_points_max,
+        Median(f.line_d), Percentile(f.line_d, 0.9));
+  }
+  if (have_robots) {
+    std::printf(
+        "robots within 5 m         found %d of %d (%.1f %%) within %.2f m; centre error "
+        "median %.3f m\n",
+        f.robots_found, f.robots_in_range, pct(f.robots_found, f.robots_in_range), kObstacleHitM,
+        f.obstacle_err.empty() ? 0.0 : Median(f.obstacle_err));
+    std::printf("obstacles within 5 m      %d reported, %d false (%.1f %%)\n", f.obstacles,
+                f.obstacles_false, pct(f.obstacles_false, f.obstacles));
+  }
+  const char* cams[2] = {"omni", "persp"};
+  for (int c = 0; c < 2; ++c) {
+    std::printf("ball %-5s                found %d of %d visible (%.1f %%), false %d", cams[c],
+                f.ball_found[c], f.ball_vis[c], pct(f.ball_found[c], f.ball_vis[c]),
+                f.ball_false[c]);
+    if (!f.centre_err[c].empty()) {
+      std::printf(", centre error median %.2f px p90 %.2f px", Median(f.centre_err[c]),
+                  Percentile(f.centre_err[c], 0.9));
+    }
+    std::printf("\n");
+  }
+  std::printf("ball 3D                   found %d frames, %d more than 0.5 m off", f.state_found,
+              f.state_false);
+  if (!f.err3d.empty()) {
+    std::printf("; error median %.3f m, p90 %.3f m", Median(f.err3d), Percentile(f.err3d, 0.9));
+  }
+  std::printf("\nfeature pass              %.0f LUT lookups per frame (max %.0f)\n",
+              f.sum_feature_lookups / std::max(1, f.frames), f.max_feature_lookups);
+}
+
+}  // namespace
+
+int CmdEvalField(int argc, char** argv) {
+  FieldArgs a;
+  std::string err, used;
+  if (!ParseFieldArgs(argc, argv, a, err) || a.help || a.seq.empty() || a.calib.empty()) {
+    std::fprintf(a.help ? stdout : stderr,
+                 "%s%susage: ballvision eval-field SEQ --calib FILE [--lut FILE] [--robots CSV]\n"
+                 "       [--half -1|0|1] [--stills] [--no-field] [--per-frame]\n"
+                 "  field figures against SEQ/truth.csv: pose (from an unknown start), line\n"
+                 "  points, obstacles (--robots: index,x,y,radius, robot frame; see\n"
+                 "  tools/python/scene_robots.py), ball recall and false balls per camera\n"
+                 "  --half     the main computer's hint: sign of the robot's field x\n"
+                 "  --stills   frames are unrelated stills: no ball tracking across frames\n"
+                 "  --no-field field features and localisation off (the comparison)\n",
+                 err.c_str(), err.empty() ? "" : "\n");
+    return a.help ? 0 : 2;
+  }
+  host::Sequence seq;
+  RigCalibration cal;
+  ColorLut lut;
+  std::map<uint64_t, TruthRow> truth;
+  std::map<int64_t, std::vector<RobotTruth>> robots;
+  if (!host::LoadSequence(a.seq, seq, err) || !LoadCalibrationFile(a.calib, cal, err) ||
+      !LoadLutOrDefault(a.lut, a.calib, lut, used, err) ||
+      !LoadTruth(a.seq + "/truth.csv", truth, err) ||
+      (!a.robots.empty() && !LoadRobots(a.robots, robots, err))) {
+    std::fprintf(stderr, "ballvision eval-field: %s\n", err.c_str());
+    return 1;
+  }
+  std::fprintf(stderr, "colour LUT: %s\n", used.c_str());
+  auto pipeline = std::make_unique<Pipeline>();
+  PipelineConfig config;
+  config.field_features = !a.no_field;
+  Status st = pipeline->Init(cal, lut, config);
+  if (st.ok() && a.half != 0) st = pipeline->SetFieldHalf(static_cast<int8_t>(a.half));
+  if (!st.ok()) {
+    std::fprintf(stderr, "ballvision eval-field: pipeline: %s\n", st.message());
+    return 1;
+  }
+  Figures fig;
+  const uint64_t t0 = seq.entries.empty() ? 0 : seq.entries.front().t_us;
+  RunSettings rs;
+  rs.reset_each_frame = a.stills;
+  rs.on_frame = [&](const Pipeline& p, const FrameRecord& rec) {
+    ++fig.frames;
+    const auto it = truth.find(rec.state.t_us);
+    const FieldFeatures& ff = p.features();
+    fig.sum_feature_lookups += ff.lookups;
+    fig.max_feature_lookups = std::max<double>(fig.max_feature_lookups, ff.lookups);
+    if (it == truth.end()) return;
+    const double t_s = static_cast<double>(rec.state.t_us - t0) * 1e-6;
+    ScorePose(p.localisation(), it->second, t_s, fig);
+    ScoreLines(ff, p.field_model(), it->second, fig);
+    if (!a.robots.empty()) ScoreObstacles(ff, robots[rec.index], fig);
+    ScoreBall(rec.state, it->second, fig);
+    if (a.per_frame && it->second.vis[1] && !rec.state.persp.found) {
+      std::printf(
+          "frame %lld: persp ball visible (%.1f, %.1f, area %.0f) not found (out-of-field refused "
+          "%u, dropped %u)\n",
+          static_cast<long long>(rec.index), it->second.cu[1], it->second.cv[1], it->second.area[1],
+          p.last_stats().out_of_field_rejected, p.last_stats().tracks_dropped_out_of_field);
+    }
+    if (a.per_frame) {
+      const PoseEstimate& e = p.localisation();
+      std::printf(
+          "frame %lld t %.3f pose state %d (%.2f, %.2f, %.1f deg) sigma %.2f q %.2f "
+          "amb %d lines %d obstacles %d | truth (%.2f, %.2f, %.1f)\n",
+          static_cast<long long>(rec.index), t_s, e.state, e.x_m, e.y_m, e.heading_rad * 180 / kPi,
+          e.sigma_x_m, e.quality, e.ambiguous, ff.line_count, ff.obstacle_count, it->second.rx,
+          it->second.ry, it->second.rh_deg);
+    }
+  };
+  std::vector<FrameRecord> recs;
+  if (!RunSequence(seq, *pipeline, rs, recs, err)) {
+    std::fprintf(stderr, "ballvision eval-field: %s\n", err.c_str());
+    return 1;
+  }
+  PrintFigures(fig, !a.robots.empty());
+  return 0;
+}
+
+}  // namespace bv::cli
