@@ -18,11 +18,9 @@ constexpr int kHeadingBins = 45;     // 2 deg bins over 90 deg
 constexpr float kMinSigmaM = 0.02f;  // floor: calibration and line-centre error
 constexpr float kMinSigmaRad = 0.005f;
 
-float WrapPi(float a) {
-  while (a > kPi) a -= 2.0f * kPi;
-  while (a <= -kPi) a += 2.0f * kPi;
-  return a;
-}
+float WrapPi(float a) { return std::remainder(a, 2.0f * kPi); }  // no loop on huge values
+
+bool Finite(const LinePoint& p) { return std::isfinite(p.x_m) && std::isfinite(p.y_m); }
 
 // Robot-frame point -> field frame (heading = field angle of robot +y).
 inline void ToField(float x, float y, float h, float rx, float ry, float& fx, float& fy) {
@@ -88,13 +86,14 @@ float Localiser::Score(const FieldFeatures& f, float x, float y, float h, int ma
   float sum = 0.0f;
   int n = 0;
   for (int i = 0; i < f.line_count; i += stride) {
+    if (!Finite(f.lines[i])) continue;
     float fx, fy, gx, gy;
     ToField(x, y, h, f.lines[i].x_m, f.lines[i].y_m, fx, fy);
     const float d = field_->Distance(fx, fy, gx, gy);
     sum += 1.0f - c2 / (c2 + d * d);
     ++n;
   }
-  return sum / static_cast<float>(n);
+  return n > 0 ? sum / static_cast<float>(n) : 1.0f;
 }
 
 Localiser::FitResult Localiser::Refine(const FieldFeatures& f, float x, float y, float h,
@@ -109,7 +108,10 @@ Localiser::FitResult Localiser::Refine(const FieldFeatures& f, float x, float y,
     float wsum = 0.0f, wd2 = 0.0f;
     int inliers = 0;
     const float s = std::sin(r.h), co = std::cos(r.h);
+    int used = 0;
     for (int i = 0; i < f.line_count; ++i) {
+      if (!Finite(f.lines[i])) continue;  // never from the extractor; a bad caller's point
+      ++used;
       const float rx = f.lines[i].x_m, ry = f.lines[i].y_m;
       const float fx = r.x + rx * s + ry * co, fy = r.y - rx * co + ry * s;
       float gx, gy;
@@ -124,7 +126,7 @@ Localiser::FitResult Localiser::Refine(const FieldFeatures& f, float x, float y,
       inliers += d < config_.inlier_m;
     }
     r.inliers = inliers;
-    r.used = f.line_count;
+    r.used = used;
     r.s2 = wsum > 3.0f ? wd2 / (wsum - 3.0f) : 1.0f;
     if (it == iterations) break;
     Eigen::Matrix3f A = H;
@@ -152,6 +154,7 @@ bool Localiser::EstimateHeading(const FieldFeatures& f, float& h0) const {
   float hist[kHeadingBins] = {};
   int pairs = 0;
   for (int i = 0; i < f.line_count; ++i) {
+    if (!Finite(f.lines[i])) continue;
     // Points are stored ray by ray: only the next two rays can pair.
     for (int j = i + 1; j < f.line_count; ++j) {
       const int dr = static_cast<int>(f.lines[j].ray) - static_cast<int>(f.lines[i].ray);
@@ -159,7 +162,7 @@ bool Localiser::EstimateHeading(const FieldFeatures& f, float& h0) const {
       if (dr < 1) continue;
       const float dx = f.lines[j].x_m - f.lines[i].x_m, dy = f.lines[j].y_m - f.lines[i].y_m;
       const float len = std::hypot(dx, dy);
-      if (len < 0.1f || len > 0.8f) continue;
+      if (!(len >= 0.1f && len <= 0.8f)) continue;  // also drops NaN
       float a = std::atan2(dy, dx);
       a = std::fmod(a + 4.0f * kPi, 0.5f * kPi);
       const int bin = std::min(kHeadingBins - 1, static_cast<int>(a / (0.5f * kPi) * kHeadingBins));
