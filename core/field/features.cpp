@@ -31,6 +31,18 @@ Status FieldFeatureExtractor::Init(const OmniScanConfig& scan, const OmniCalibra
   if (n_radii_ <= 1) {
     return Status(StatusCode::kInvalidArgument, "field features: bad feature ray set");
   }
+  for (int k = 0; k < n_radii_; ++k) radii_q4_[k] = RadiusQ4(radii_[k]);
+  static_assert(OmniFeatureRays::kMaxRadii <= 255);
+  for (int i = 0; i < scan.features.rays; ++i) {
+    const OmniRayQ q = MakeOmniRay(scan, i);
+    int k = 0;
+    for (; k < n_radii_; ++k) {
+      int u, v;
+      OmniRayPixel(q, radii_q4_[k], u, v);
+      if (u < 0 || v < 0 || u >= kFrameWidth || v >= kFrameHeight) break;
+    }
+    inside_[i] = static_cast<uint8_t>(k);
+  }
   if (!(config.line_width_m > 0.0f) || !(config.min_width_factor > 0.0f) ||
       !(config.max_width_factor > config.min_width_factor) || config.min_obstacle_samples < 1 ||
       !(config.max_line_range_m > 0.0f) || !(config.max_obstacle_range_m > 0.0f) ||
@@ -81,14 +93,17 @@ void FieldFeatureExtractor::ScanRay(const YuyvImage& img, const ColorLut& lut, i
                                     FieldFeatures& out) {
   const float a = RayAngle(ray, scan_.features.rays);
   const float cs = std::cos(a), sn = std::sin(a);
+  const OmniRayQ q = MakeOmniRay(scan_, ray);
   int last_green = -10, white_start = -1, last_white = -10, green_before_white = -10;
   int dark_start = -1, dark_count = 0, green_before_dark = -10;
-  for (int k = 0; k < n_radii_; ++k) {
+  const int n = inside_[ray];
+  out.lookups += static_cast<uint32_t>(n);
+  for (int k = 0; k < n; ++k) {
     int u, v;
-    OmniSamplePixel(scan_, cs, sn, radii_[k], u, v);
-    if (!img.contains(u, v)) break;
-    const ColorClass c = ClassAt(img, lut, u, v);
-    ++out.lookups;
+    OmniRayPixel(q, radii_q4_[k], u, v);
+    // Inside the frame by construction (inside_), so no bounds test in this loop.
+    const uint8_t* pair = img.data + v * img.stride_bytes + (u & ~1) * 2;
+    const ColorClass c = lut.Classify(pair[(u & 1) * 2], pair[1], pair[3]);
     if (c == ColorClass::kField) {
       if (white_start >= 0 && k - last_white <= 2 && white_start - green_before_white <= 2) {
         AddLinePoint(0.5f * (radii_[green_before_white] + radii_[white_start]),
@@ -131,10 +146,16 @@ void FieldFeatureExtractor::ScanRay(const YuyvImage& img, const ColorLut& lut, i
   }
 }
 
+// Between rays (edge bisection): the same rounding as a ray's samples.
+void FieldFeatureExtractor::Pixel(float angle, float r, int& u, int& v) const {
+  u = static_cast<int>(std::floor(scan_.center_u + 0.5f + r * std::cos(angle)));
+  v = static_cast<int>(std::floor(scan_.center_v + 0.5f + r * std::sin(angle)));
+}
+
 bool FieldFeatureExtractor::DarkAt(const YuyvImage& img, const ColorLut& lut, float angle, float r,
                                    FieldFeatures& out) {
   int u, v;
-  OmniSamplePixel(scan_, std::cos(angle), std::sin(angle), r, u, v);
+  Pixel(angle, r, u, v);
   ++out.lookups;
   return ClassAt(img, lut, u, v) == ColorClass::kObstacle;
 }

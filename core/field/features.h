@@ -80,6 +80,7 @@ class FieldFeatureExtractor {
   void AddLinePoint(float r_in, float r_out, float cs, float sn, int ray, FieldFeatures& out);
   void MergeObstacles(const YuyvImage& img, const ColorLut& lut, FieldFeatures& out);
   bool DarkAt(const YuyvImage& img, const ColorLut& lut, float angle, float r, FieldFeatures& out);
+  void Pixel(float angle, float r, int& u, int& v) const;
   float RefineEdge(const YuyvImage& img, const ColorLut& lut, float in_angle, float out_angle,
                    float r, FieldFeatures& out);
   bool Ground(float u, float v, float& x, float& y) const;
@@ -89,6 +90,8 @@ class FieldFeatureExtractor {
   FieldFeatureConfig config_;
   bool ready_ = false;
   float radii_[OmniFeatureRays::kMaxRadii] = {};
+  int32_t radii_q4_[OmniFeatureRays::kMaxRadii] = {};
+  uint8_t inside_[OmniFeatureRays::kMaxRays] = {};  // leading samples of each ray in the frame
   int n_radii_ = 0;
   RayHit hits_[OmniFeatureRays::kMaxRays] = {};
 };

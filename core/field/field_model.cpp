@@ -11,12 +11,6 @@ constexpr float kPi = 3.14159265358979f;
 bool Positive(float v) { return std::isfinite(v) && v > 0.0f; }
 bool NonNegative(float v) { return std::isfinite(v) && v >= 0.0f; }
 
-float WrapTwoPi(float a) {
-  while (a < 0.0f) a += 2.0f * kPi;
-  while (a >= 2.0f * kPi) a -= 2.0f * kPi;
-  return a;
-}
-
 }  // namespace
 
 Status ValidateFieldConfig(const FieldConfig& f) {
@@ -117,18 +111,21 @@ float FieldModel::PrimitiveDistance(const Primitive& p, float x, float y, float&
     qx = p.a + t * dx;
     qy = p.b + t * dy;
   } else if (p.kind == 1) {
+    // Quarter arcs start at an axis (angle d = 0 or pi): the point is within the arc's angle
+    // when both offsets have the quarter's signs; else the nearer end. No trigonometry.
+    const float sx = p.d > 1.0f ? -1.0f : 1.0f;  // quadrant signs of the arc
     const float rx = x - p.a, ry = y - p.b;
-    const float ang = WrapTwoPi(std::atan2(ry, rx) - p.d);
-    float a = p.d;
-    if (ang <= 0.5f * kPi) {
-      a += ang;
-    } else if (ang > 1.25f * kPi) {  // nearer the start end
-      a += 0.0f;
+    if (rx * sx >= 0.0f && ry * sx >= 0.0f) {
+      const float len = std::sqrt(rx * rx + ry * ry);
+      qx = len > 1e-6f ? p.a + p.c * rx / len : p.a + p.c * sx;
+      qy = len > 1e-6f ? p.b + p.c * ry / len : p.b;
     } else {
-      a += 0.5f * kPi;
+      const float e0x = p.a + sx * p.c, e0y = p.b, e1x = p.a, e1y = p.b + sx * p.c;
+      const bool first = (x - e0x) * (x - e0x) + (y - e0y) * (y - e0y) <=
+                         (x - e1x) * (x - e1x) + (y - e1y) * (y - e1y);
+      qx = first ? e0x : e1x;
+      qy = first ? e0y : e1y;
     }
-    qx = p.a + p.c * std::cos(a);
-    qy = p.b + p.c * std::sin(a);
   }
   const float ex = x - qx, ey = y - qy;
   const float d = std::sqrt(ex * ex + ey * ey);

@@ -55,7 +55,7 @@ class FieldModel {
  private:
   struct Primitive {
     uint8_t kind;      // 0 segment (a, b) -> (c, d); 1 arc centre (a, b) radius c; 2 spot (a, b)
-    float a, b, c, d;  // arc: d = start angle (rad), its span is a quarter turn
+    float a, b, c, d;  // arc: d = start angle, 0 or pi (rad); it spans a quarter turn
   };
   void Add(uint8_t kind, float a, float b, float c, float d);
   float PrimitiveDistance(const Primitive& p, float x, float y, float& gx, float& gy) const;

@@ -83,12 +83,14 @@ float Localiser::Score(const FieldFeatures& f, float x, float y, float h, int ma
   if (f.line_count == 0) return 1.0f;
   const int stride = std::max(1, f.line_count / std::max(1, max_points));
   const float c = kSearchCPerGrid * config_.grid_m, c2 = c * c;
+  const float s = std::sin(h), co = std::cos(h);
   float sum = 0.0f;
   int n = 0;
   for (int i = 0; i < f.line_count; i += stride) {
     if (!Finite(f.lines[i])) continue;
-    float fx, fy, gx, gy;
-    ToField(x, y, h, f.lines[i].x_m, f.lines[i].y_m, fx, fy);
+    const float rx = f.lines[i].x_m, ry = f.lines[i].y_m;
+    const float fx = x + rx * s + ry * co, fy = y - rx * co + ry * s;
+    float gx, gy;
     const float d = field_->Distance(fx, fy, gx, gy);
     sum += 1.0f - c2 / (c2 + d * d);
     ++n;
@@ -97,7 +99,7 @@ float Localiser::Score(const FieldFeatures& f, float x, float y, float h, int ma
 }
 
 Localiser::FitResult Localiser::Refine(const FieldFeatures& f, float x, float y, float h,
-                                       int iterations, float c) const {
+                                       int iterations, float c, int stride) const {
   FitResult r{x, y, h, 0, 0, 1.0f, 1.0f, 1.0f, 1.0f};
   const float c2 = c * c;
   Eigen::Matrix3f H;
@@ -109,7 +111,7 @@ Localiser::FitResult Localiser::Refine(const FieldFeatures& f, float x, float y,
     int inliers = 0;
     const float s = std::sin(r.h), co = std::cos(r.h);
     int used = 0;
-    for (int i = 0; i < f.line_count; ++i) {
+    for (int i = 0; i < f.line_count; i += stride) {
       if (!Finite(f.lines[i])) continue;  // never from the extractor; a bad caller's point
       ++used;
       const float rx = f.lines[i].x_m, ry = f.lines[i].y_m;
@@ -259,18 +261,16 @@ void Localiser::ContinueSearch(const FieldFeatures& f) {
   // is (two lines fit at many places): no pose, try again.
   FitResult fits[kMaxCandidates];
   int best = -1;
+  // Coarse to fine on a subsample (the cost of this frame), then the winner on every point.
+  const int stride = std::max(1, f.line_count / kScorePoints);
   for (int k = 0; k < best_count_; ++k) {
-    FitResult r = Refine(f, best_[k].x, best_[k].y, best_[k].h, 4, 1.0f);
-    r = Refine(f, r.x, r.y, r.h, 3, 0.5f);
-    fits[k] = Refine(f, r.x, r.y, r.h, 3, config_.c_m);
-    pose_.evaluations += 10;
+    FitResult r = Refine(f, best_[k].x, best_[k].y, best_[k].h, 2, 1.0f, stride);
+    r = Refine(f, r.x, r.y, r.h, 2, 0.5f, stride);
+    fits[k] = Refine(f, r.x, r.y, r.h, 1, config_.c_m, stride);
+    pose_.evaluations += 5;
     if (best < 0 || fits[k].inliers > fits[best].inliers) best = k;
   }
-  const bool fits_well = best >= 0 && fits[best].inliers >= config_.min_points &&
-                         static_cast<float>(fits[best].inliers) >=
-                             config_.global_inlier_ratio * static_cast<float>(fits[best].used) &&
-                         Constrained(fits[best]);
-  bool unique = fits_well;
+  bool unique = best >= 0;
   for (int k = 0; k < best_count_ && unique; ++k) {
     if (k == best ||
         static_cast<float>(fits[k].inliers) < 0.9f * static_cast<float>(fits[best].inliers)) {
@@ -278,7 +278,14 @@ void Localiser::ContinueSearch(const FieldFeatures& f) {
     }
     unique = SamePose(fits[k], fits[best]);
   }
-  if (unique) {
+  if (best >= 0) {
+    fits[best] = Refine(f, fits[best].x, fits[best].y, fits[best].h, 2, config_.c_m);
+  }
+  const bool fits_well = best >= 0 && fits[best].inliers >= config_.min_points &&
+                         static_cast<float>(fits[best].inliers) >=
+                             config_.global_inlier_ratio * static_cast<float>(fits[best].used) &&
+                         Constrained(fits[best]);
+  if (unique && fits_well) {
     Accept(fits[best], last_t_us_);
     pose_.ambiguous = true;
     ApplyHalf();

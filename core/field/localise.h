@@ -88,8 +88,8 @@ class Localiser {
     int inliers, used;
     float h00, h11, h22, s2;
   };
-  FitResult Refine(const FieldFeatures& f, float x, float y, float h, int iterations,
-                   float c) const;
+  FitResult Refine(const FieldFeatures& f, float x, float y, float h, int iterations, float c,
+                   int stride = 1) const;
   bool EstimateHeading(const FieldFeatures& f, float& h0) const;
   void StartSearch(const FieldFeatures& f);
   void Keep(const Candidate& c);

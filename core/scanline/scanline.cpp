@@ -45,7 +45,9 @@ int OmniFeatureRadii(const OmniScanConfig& c, float* radii, int capacity) {
   if (f.rays == 0) return 0;
   if (f.rays < 0 || f.rays > OmniFeatureRays::kMaxRays || (f.rays & (f.rays - 1)) != 0 ||
       !(f.step_inner_px >= 1.0f) || !(f.step_outer_px >= 1.0f) ||
-      !(f.end_radius_px > c.inner_radius_px) || !(f.end_radius_px <= c.outer_radius_px)) {
+      !(f.end_radius_px > c.inner_radius_px) || !(f.end_radius_px <= c.outer_radius_px) ||
+      f.end_radius_px > 2047.0f || !(c.center_u >= 0.0f && c.center_u <= 2047.0f) ||
+      !(c.center_v >= 0.0f && c.center_v <= 2047.0f)) {
     return -1;
   }
   int n = 0;
@@ -57,6 +59,16 @@ int OmniFeatureRadii(const OmniScanConfig& c, float* radii, int capacity) {
     r += std::max(1.0f, std::round(f.step_inner_px + t * (f.step_outer_px - f.step_inner_px)));
   }
   return n;
+}
+
+OmniRayQ MakeOmniRay(const OmniScanConfig& c, int ray) {
+  const float a = 2 * kPi * static_cast<float>(ray) / static_cast<float>(c.features.rays);
+  OmniRayQ q;
+  q.u0_q18 = static_cast<int32_t>(std::lround((c.center_u + 0.5f) * 262144.0f));
+  q.v0_q18 = static_cast<int32_t>(std::lround((c.center_v + 0.5f) * 262144.0f));
+  q.cs_q14 = static_cast<int32_t>(std::lround(std::cos(a) * 16384.0f));
+  q.sn_q14 = static_cast<int32_t>(std::lround(std::sin(a) * 16384.0f));
+  return q;
 }
 
 bool OmniFeatureRayBlocked(const OmniScanConfig& c, int ray) {
@@ -279,17 +291,16 @@ Status ScanlineTableBase::BuildOmni(const OmniScanConfig& c, int width, int heig
   const int n_radii = OmniFeatureRadii(c, g_feature_radii, OmniFeatureRays::kMaxRadii);
   if (n_radii < 0) {
     return Status(StatusCode::kInvalidArgument,
-                  "BuildOmni: feature rays not a power of two <= 128 or bad radii/steps");
+                  "BuildOmni: feature rays not a power of two <= 64 or bad radii/steps");
   }
   // Feature-ray samples of row v (the same rounding as core/field's reader).
   const auto add_feature_samples = [&](int v, int& n, bool& overflow) {
     for (int i = 0; i < c.features.rays && !overflow; ++i) {
       if (OmniFeatureRayBlocked(c, i)) continue;
-      const float a = 2 * kPi * static_cast<float>(i) / static_cast<float>(c.features.rays);
-      const float cs = std::cos(a), sn = std::sin(a);
+      const OmniRayQ q = MakeOmniRay(c, i);
       for (int k = 0; k < n_radii; ++k) {
         int su, sv;
-        OmniSamplePixel(c, cs, sn, g_feature_radii[k], su, sv);
+        OmniRayPixel(q, RadiusQ4(g_feature_radii[k]), su, sv);
         if (sv != v || su < 0 || su >= width) continue;
         if (n >= kMaxRowSamples) {
           overflow = true;

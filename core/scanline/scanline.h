@@ -36,7 +36,7 @@ struct StrutSector {
 /// (rounded to whole pixels). Their samples join the table, so the ball front end and the feature
 /// extractor read the same pixels; rays = 0 adds nothing.
 struct OmniFeatureRays {
-  static constexpr int kMaxRays = 128;
+  static constexpr int kMaxRays = 64;
   static constexpr int kMaxRadii = 192;
   int rays = 0;
   float end_radius_px = 0;
@@ -56,15 +56,24 @@ struct OmniScanConfig {
 };
 
 /// The sample radii of every feature ray (px from the centre, increasing). Returns the count, or
-/// -1 if the ray set is invalid (rays not a power of two <= kMaxRays, more than kMaxRadii radii).
+/// -1 if the ray set is invalid (rays not a power of two <= kMaxRays (64), more than kMaxRadii
+/// radii, a centre or end radius beyond 2047 px: the fixed-point walk's range).
 int OmniFeatureRadii(const OmniScanConfig& config, float* radii, int capacity);
 /// True if feature ray i's angle (2 pi i / rays, image angle, v down) lies in a strut wedge.
 bool OmniFeatureRayBlocked(const OmniScanConfig& config, int ray);
-/// The pixel of radius r on the line at image angle (cs, sn): the rounding every reader shares.
-inline void OmniSamplePixel(const OmniScanConfig& c, float cs, float sn, float r, int& u, int& v) {
-  u = static_cast<int>(std::floor(c.center_u + 0.5f + r * cs));
-  v = static_cast<int>(std::floor(c.center_v + 0.5f + r * sn));
+/// Fixed-point walk along feature ray i: pixel of radius r (1/16 px) = floor(centre + 0.5 + r *
+/// (cos, sin)), in integers so the table build and every reader get the same pixels, and the
+/// per-sample cost is two multiply-adds (the feature pass's hot loop).
+struct OmniRayQ {
+  int32_t u0_q18 = 0, v0_q18 = 0;  // centre + 0.5, Q18
+  int32_t cs_q14 = 0, sn_q14 = 0;  // direction, Q14
+};
+OmniRayQ MakeOmniRay(const OmniScanConfig& config, int ray);
+inline void OmniRayPixel(const OmniRayQ& q, int32_t r_q4, int& u, int& v) {
+  u = (q.u0_q18 + r_q4 * q.cs_q14) >> 18;  // arithmetic shift: floor for negative values too
+  v = (q.v0_q18 + r_q4 * q.sn_q14) >> 18;
 }
+inline int32_t RadiusQ4(float r) { return static_cast<int32_t>(std::lround(r * 16.0f)); }
 
 struct PerspScanConfig {
   DiameterProfile diameter;          // over image rows; default when count == 0: 8 px everywhere
