@@ -85,6 +85,10 @@ TEST(Protocol, StatusRoundTrip) {
   s.deadline_overruns = 2;
   s.calibration_id = 0xDEADBEEF;
   s.lut_state = static_cast<uint8_t>(BlobState::kCorrupt);
+  s.fault_flags = 5;
+  s.rx_overruns = 7;
+  s.rx_ring_full = 11;
+  s.rx_line_errors = 13;
   std::vector<uint8_t> out(kMaxWireFrameBytes);
   auto n = EncodeStatus(s, 1, out);
   ASSERT_TRUE(n.ok());
@@ -99,6 +103,11 @@ TEST(Protocol, StatusRoundTrip) {
   EXPECT_EQ(r.deadline_overruns, 2u);
   EXPECT_EQ(r.calibration_id, 0xDEADBEEFu);
   EXPECT_EQ(r.lut_state, static_cast<uint8_t>(BlobState::kCorrupt));
+  EXPECT_EQ(r.fault_flags, 5u);
+  EXPECT_EQ(r.rx_overruns, 7u);
+  EXPECT_EQ(r.rx_ring_full, 11u);
+  EXPECT_EQ(r.rx_line_errors, 13u);
+  EXPECT_EQ(f.payload.size(), kStatusPayloadBytes);
 }
 
 TEST(Protocol, RejectsNaNAndBadLengths) {
@@ -216,6 +225,9 @@ TEST(Protocol, GoldenStreamMatchesCommittedFixture) {
   st.frames_processed = 30;
   st.frame_rate_mhz = 30000;
   st.calibration_id = 0x1234;
+  st.rx_overruns = 1;  // the appended receive-loss fields, at distinct values
+  st.rx_ring_full = 2;
+  st.rx_line_errors = 3;
   auto b = EncodeStatus(st, 42, std::span(stream).subspan(*a));
   ASSERT_TRUE(b.ok());
   stream.resize(*a + *b);
