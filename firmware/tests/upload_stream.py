@@ -9,7 +9,8 @@ unanswered command fails the run: there are no retries.
 
 After the commit's ack it reads to the end of the stream and checks the last status packet:
 the blob active, no receive loss (rx_overruns, rx_ring_full, rx_line_errors, rx_errors) and no
-refused command. MIN_FRAMES: ball states that must arrive while the upload is in progress."""
+refused command. MIN_FRAMES: ball states that must arrive while the upload is in progress; more
+must follow its end (the whole upload overlapped frame processing)."""
 import os
 import socket
 import sys
@@ -94,14 +95,16 @@ def main():
         link.command(frame, FIRST_SEQ + i)
     during = link.balls - balls_before
     wall = time.monotonic() - t0
+    balls_at_commit = link.balls
     while not link.eof:
         link.read()
+    after = link.balls - balls_at_commit
     if not link.statuses:
         fail("no status packet")
     st = link.statuses[-1]
     print(f"upload: {len(frames)} commands ({sum(map(len, frames))} bytes) each acked on the "
-          f"first try in {wall:.2f} s wall; {during} ball states arrived meanwhile, "
-          f"{link.balls} in all; decoder errors {sum(link.dec.errors.values())}")
+          f"first try in {wall:.2f} s wall; ball states: {balls_before} before, {during} during, "
+          f"{after} after the upload; decoder errors {sum(link.dec.errors.values())}")
     print(f"final status: frames_processed {st.frames_processed}, lut_state {st.lut_state}, "
           f"calibration_state {st.calibration_state}, rx_errors {st.rx_errors}, command_errors "
           f"{st.command_errors}, rx_overruns {st.rx_overruns}, rx_ring_full {st.rx_ring_full}, "
@@ -116,6 +119,8 @@ def main():
         fail("corrupt frames from the firmware")
     if during < min_frames:
         fail(f"only {during} frame pairs were processed during the upload (< {min_frames})")
+    if after == 0:
+        fail("the frames ended before the upload did: it did not overlap frame processing")
     print("PASS: upload streamed while frames were processed, completed on the first try")
     return 0
 
