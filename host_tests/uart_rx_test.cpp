@@ -24,12 +24,13 @@ namespace {
 
 constexpr uint64_t kCharNs = 10ull * 1000000000ull / 921600;  // 10 850 ns per 8N1 byte
 
-class SimClock : public hal::Clock {
+class SimClock final : public hal::Clock {
  public:
   uint64_t now_ns = 0;
+  uint64_t ReadUs() const { return now_ns / 1000; }
 
  private:
-  uint64_t DoNowUs() const override { return now_ns / 1000; }
+  uint64_t DoNowUs() const override { return ReadUs(); }
 };
 
 /// A register with hardware side effects: reads and writes go through the fake's handlers.
@@ -97,7 +98,7 @@ struct FakeH7Ports {
 
 class H7Board : public SimBoard {
  public:
-  using Driver = h7::DmaUartT<FakeH7Ports>;
+  using Driver = h7::DmaUartT<FakeH7Ports, SimClock>;
   H7Board() : uart_(FakeH7Ports{&usart_, &dma_, &dmamux_, &rcc_, &nvic_}) {
     usart_.ICR.on_write = [this](uint32_t&, uint32_t x) { usart_.ISR.v &= ~x; };
     dma_.LIFCR.on_write = [this](uint32_t&, uint32_t x) { dma_.LISR.v &= ~x; };
@@ -227,7 +228,7 @@ struct FakeCmsdk {
 
 class QemuBoard : public SimBoard {
  public:
-  using Driver = qemu::CmsdkUartT<FakeCmsdk, FakeNvic>;
+  using Driver = qemu::CmsdkUartT<FakeCmsdk, FakeNvic, SimClock>;
   QemuBoard() : uart_(&regs_, &nvic_) {
     regs_.DATA.on_read = [this](uint32_t& r) {
       regs_.STATE.v &= ~qemu::kUartStateRxFull;

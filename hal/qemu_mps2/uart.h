@@ -10,12 +10,13 @@
 
 #include "hal/clock.h"
 #include "hal/cortex_m/uart_rings.h"
+#include "hal/qemu_mps2/clock.h"
 #include "hal/qemu_mps2/registers.h"
 #include "hal/uart.h"
 
 namespace bv::qemu {
 
-template <typename Regs, typename Nvic = NvicRegs>
+template <typename Regs, typename Nvic, typename ClockT>
 class CmsdkUartT : public hal::Uart {
  public:
   static constexpr size_t kTxCapacity = 2048;  // > one second of packets at 30 Hz
@@ -23,8 +24,8 @@ class CmsdkUartT : public hal::Uart {
   static constexpr size_t kRxFrames = 32;      // stamped frames waiting for the loop
 
   CmsdkUartT(Regs* regs, Nvic* nvic) : regs_(regs), nvic_(nvic) {}
-  /// `clock` stamps arrivals and departures (interrupt-safe NowUs()).
-  void Init(const hal::Clock* clock) {
+  /// `clock` stamps arrivals and departures (interrupt-safe ReadUs(), no virtual call).
+  void Init(const ClockT* clock) {
     clock_ = clock;
     regs_->BAUDDIV = 16;  // minimum legal divider; QEMU does not model the baud rate
     regs_->CTRL = kUartCtrlTxEn | kUartCtrlRxEn | kUartCtrlRxIntEn;
@@ -34,7 +35,7 @@ class CmsdkUartT : public hal::Uart {
   /// UART0 RX interrupt: the one-byte holding register into the ring.
   void OnRxIrq() {
     regs_->INTSTATUS = kUartIntRx;  // before the read: a later byte raises it again
-    const uint64_t t_us = clock_->NowUs();
+    const uint64_t t_us = clock_->ReadUs();
     while ((regs_->STATE & kUartStateRxFull) != 0) {
       rx_.Push(static_cast<uint8_t>(regs_->DATA), t_us);
     }
@@ -47,7 +48,7 @@ class CmsdkUartT : public hal::Uart {
   size_t Poll() {
     if (tx_stalled() || tx_.empty()) return tx_.size();
     // QEMU sends a byte the moment DATA is written: its stamp is the write time.
-    const uint64_t t_us = clock_->NowUs();
+    const uint64_t t_us = clock_->ReadUs();
     while (!tx_.empty() && (regs_->STATE & kUartStateTxFull) == 0) {
       tx_.OnSendStart(1, t_us, 0);
       regs_->DATA = tx_.Contiguous()[0];
@@ -99,7 +100,7 @@ class CmsdkUartT : public hal::Uart {
 
   Regs* regs_;
   Nvic* nvic_;
-  const hal::Clock* clock_ = nullptr;
+  const ClockT* clock_ = nullptr;
   cm7::UartTxRing<kTxCapacity> tx_;
   cm7::UartRxRing<kRxCapacity, kRxFrames> rx_;
   uint32_t rx_bytes_ = 0;
@@ -109,6 +110,6 @@ class CmsdkUartT : public hal::Uart {
   uint32_t bytes_sent_ = 0;
 };
 
-using CmsdkUart = CmsdkUartT<CmsdkUartRegs>;
+using CmsdkUart = CmsdkUartT<CmsdkUartRegs, NvicRegs, DualTimerClock>;
 
 }  // namespace bv::qemu

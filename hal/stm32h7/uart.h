@@ -8,7 +8,7 @@
 //    receive ring, so a short command is seen one character after its last byte and nothing
 //    is lost while the main loop processes a frame (the buffer holds 64 characters = 694 us of
 //    interrupt latency).
-// Timestamps (clock µs), see docs/protocol.md "Timing":
+// Timestamps (clock µs), see docs/protocol.md "Receive path and timing":
 //  - a frame's delimiter: interrupt time - (bytes after it in the batch + 1 if the batch ended
 //    on an idle line) x 10.85 us. Exact to the interrupt latency when the delimiter ends a
 //    burst; later by at most the gaps between the bytes after it (each < 1 character, else the
@@ -17,13 +17,15 @@
 //    the byte starts within 2 characters after that stamp (the USART may still be shifting
 //    out the previous chunk's last bytes).
 // The peripherals come in through `Ports` (pointers to register blocks), so host tests run this
-// exact code against a register-level fake (host_tests/uart_rx_test.cpp).
+// exact code against a register-level fake (host_tests/uart_rx_test.cpp). The clock type is a
+// parameter too: the interrupt handlers read it without a virtual call (ClockT::ReadUs()).
 #include <array>
 #include <cstddef>
 #include <cstdint>
 
 #include "hal/clock.h"
 #include "hal/cortex_m/uart_rings.h"
+#include "hal/stm32h7/clock.h"
 #include "hal/stm32h7/registers.h"
 #include "hal/stm32h7/system.h"
 #include "hal/uart.h"
@@ -39,7 +41,7 @@ struct Usart1Ports {
   NvicRegs* nvic = kNvic;
 };
 
-template <typename Ports>
+template <typename Ports, typename ClockT>
 class DmaUartT : public hal::Uart {
  public:
   static constexpr size_t kTxCapacity = 2048;
@@ -54,8 +56,8 @@ class DmaUartT : public hal::Uart {
   static constexpr uint8_t kIrqPriority = 4;  // below the camera's 2/3: those are short
 
   explicit DmaUartT(const Ports& hw = Ports()) : hw_(hw) {}
-  /// `clock` stamps arrivals and departures (interrupt-safe NowUs()).
-  void Init(const hal::Clock* clock);
+  /// `clock` stamps arrivals and departures (interrupt-safe ReadUs(), no virtual call).
+  void Init(const ClockT* clock);
   /// DMA1 stream 0 interrupt: a transmit chunk is done.
   void OnTxDmaIrq();
   /// DMA1 stream 1 interrupt: the receive buffer is half or completely filled.
@@ -85,7 +87,7 @@ class DmaUartT : public hal::Uart {
   void DrainRxDma(bool idle);
 
   Ports hw_;
-  const hal::Clock* clock_ = nullptr;
+  const ClockT* clock_ = nullptr;
   cm7::UartTxRing<kTxCapacity> tx_;
   cm7::UartRxRing<kRxCapacity, kRxFrames> rx_;
   alignas(32) std::array<uint8_t, kRxDmaBytes> rx_dma_{};
@@ -93,10 +95,10 @@ class DmaUartT : public hal::Uart {
   volatile size_t in_flight_ = 0;  // bytes of the running transmit DMA transfer
 };
 
-using DmaUart = DmaUartT<Usart1Ports>;
+using DmaUart = DmaUartT<Usart1Ports, Tim2Clock>;
 
-template <typename Ports>
-void DmaUartT<Ports>::Init(const hal::Clock* clock) {
+template <typename Ports, typename ClockT>
+void DmaUartT<Ports, ClockT>::Init(const ClockT* clock) {
   clock_ = clock;
   hw_.rcc->APB2ENR = hw_.rcc->APB2ENR | (1u << 4);  // USART1 (kernel clock: PCLK2 100 MHz)
   hw_.rcc->AHB1ENR = hw_.rcc->AHB1ENR | (1u << 0);  // DMA1
@@ -125,8 +127,8 @@ void DmaUartT<Ports>::Init(const hal::Clock* clock) {
   }
 }
 
-template <typename Ports>
-void DmaUartT<Ports>::StartRxStream() {
+template <typename Ports, typename ClockT>
+void DmaUartT<Ports, ClockT>::StartRxStream() {
   auto& s = hw_.dma->S[kRxStream];
   s.CR = 0;
   while (s.CR & kDmaCrEn) {
@@ -141,9 +143,9 @@ void DmaUartT<Ports>::StartRxStream() {
   s.CR = s.CR | kDmaCrEn;
 }
 
-template <typename Ports>
-void DmaUartT<Ports>::DrainRxDma(bool idle) {
-  const uint64_t now_us = clock_->NowUs();
+template <typename Ports, typename ClockT>
+void DmaUartT<Ports, ClockT>::DrainRxDma(bool idle) {
+  const uint64_t now_us = clock_->ReadUs();
   const uint32_t ndtr = hw_.dma->S[kRxStream].NDTR;
   const size_t pos = (kRxDmaBytes - ndtr) & (kRxDmaBytes - 1);
   const size_t n = (pos - rx_read_) & (kRxDmaBytes - 1);
@@ -161,8 +163,8 @@ void DmaUartT<Ports>::DrainRxDma(bool idle) {
   rx_read_ = pos;
 }
 
-template <typename Ports>
-void DmaUartT<Ports>::OnRxDmaIrq() {
+template <typename Ports, typename ClockT>
+void DmaUartT<Ports, ClockT>::OnRxDmaIrq() {
   const uint32_t shift = DmaFlagShift(kRxStream);
   const uint32_t flags = (hw_.dma->LISR >> shift) & kDmaFlagAll;
   hw_.dma->LIFCR = flags << shift;
@@ -173,8 +175,8 @@ void DmaUartT<Ports>::OnRxDmaIrq() {
   }
 }
 
-template <typename Ports>
-void DmaUartT<Ports>::OnUsartIrq() {
+template <typename Ports, typename ClockT>
+void DmaUartT<Ports, ClockT>::OnUsartIrq() {
   const uint32_t isr = hw_.usart->ISR;
   const uint32_t errors = isr & (kUsartPe | kUsartFe | kUsartNe);
   hw_.usart->ICR = isr & (kUsartPe | kUsartFe | kUsartNe | kUsartOre | kUsartIdle);
@@ -183,8 +185,8 @@ void DmaUartT<Ports>::OnUsartIrq() {
   if (isr & kUsartIdle) DrainRxDma(true);
 }
 
-template <typename Ports>
-void DmaUartT<Ports>::KickLocked() {
+template <typename Ports, typename ClockT>
+void DmaUartT<Ports, ClockT>::KickLocked() {
   if (in_flight_ != 0 || tx_.empty()) return;
   const std::span<const uint8_t> chunk = tx_.Contiguous();
   DcacheClean(chunk.data(), chunk.size());
@@ -193,12 +195,12 @@ void DmaUartT<Ports>::KickLocked() {
   s.M0AR = BusAddress(chunk.data());
   s.NDTR = static_cast<uint32_t>(chunk.size());
   in_flight_ = chunk.size();
-  tx_.OnSendStart(chunk.size(), clock_->NowUs(), kCharNs);
+  tx_.OnSendStart(chunk.size(), clock_->ReadUs(), kCharNs);
   s.CR = s.CR | kDmaCrEn;
 }
 
-template <typename Ports>
-void DmaUartT<Ports>::OnTxDmaIrq() {
+template <typename Ports, typename ClockT>
+void DmaUartT<Ports, ClockT>::OnTxDmaIrq() {
   const uint32_t shift = DmaFlagShift(kTxStream);
   const uint32_t flags = (hw_.dma->LISR >> shift) & kDmaFlagAll;
   hw_.dma->LIFCR = flags << shift;
@@ -208,8 +210,8 @@ void DmaUartT<Ports>::OnTxDmaIrq() {
   KickLocked();
 }
 
-template <typename Ports>
-Status DmaUartT<Ports>::DoWrite(std::span<const uint8_t> bytes) {
+template <typename Ports, typename ClockT>
+Status DmaUartT<Ports, ClockT>::DoWrite(std::span<const uint8_t> bytes) {
   IrqLock lock;
   if (!tx_.Push(bytes)) return Status(StatusCode::kUnavailable, "usart1: transmit ring full");
   KickLocked();
