@@ -445,6 +445,34 @@ TEST_P(UartRx, UploadArrivesIntactWhileFramesAreProcessed) {
       worst_latency_ns / 1e3, worst_stamp_err_ns / 1e3);
 }
 
+// The interrupt side alone: a loop that reads every 1 µs sees each frame as soon as the driver
+// has moved its delimiter into the ring. QEMU: at once (one interrupt per byte); H7: at the next
+// half/full-transfer interrupt (every 32 characters) or one idle character after a burst.
+TEST_P(UartRx, InterruptPathLatencyIsBounded) {
+  auto board = MakeBoard(GetParam());
+  std::vector<WireByte> wire;
+  std::vector<uint64_t> delimiter_ns;
+  uint64_t t = 0;
+  for (const auto& f : UploadFrames(RandomBytes(1024, 18))) {
+    t = Transmit(wire, t, f);
+    delimiter_ns.push_back(t);
+  }
+  LoopModel loop;
+  loop.frame_ns = 1000;
+  const RunResult r = RunLine(*board, wire, loop);
+  ASSERT_EQ(r.frames.size(), delimiter_ns.size());
+  uint64_t worst_ns = 0;
+  for (size_t i = 0; i < r.frames.size(); ++i) {
+    worst_ns = std::max(worst_ns, r.frames[i].loop_ns - delimiter_ns[i]);
+  }
+  const uint64_t bound_ns = GetParam() ? H7Board::Driver::kRxDmaBytes / 2 * kCharNs + 1000 : 1000;
+  EXPECT_LE(worst_ns, bound_ns);
+  std::printf(
+      "[%s] worst interrupt-path latency (delimiter on the wire -> readable by the loop) "
+      "%.1f us (bound %.1f us)\n",
+      board->name(), worst_ns / 1e3, bound_ns / 1e3);
+}
+
 // A flood of small frames, back to back, while the loop reads only every 30 ms: the ring fills.
 TEST_P(UartRx, FloodFasterThanTheLoopDrainsDropsWholeFramesAndResyncs) {
   auto board = MakeBoard(GetParam());
