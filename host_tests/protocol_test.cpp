@@ -2,8 +2,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <string>
 #include <random>
+#include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -41,7 +41,8 @@ TEST(Cobs, RoundTripAllLengthsAndZeroPatterns) {
   for (size_t len = 0; len < 700; len += (len < 300 ? 1 : 37)) {
     for (int pattern = 0; pattern < 3; ++pattern) {
       std::vector<uint8_t> in(len);
-      for (auto& b : in) b = pattern == 0 ? 0 : pattern == 1 ? uint8_t(1 + rng() % 255) : uint8_t(rng());
+      for (auto& b : in)
+        b = pattern == 0 ? 0 : pattern == 1 ? uint8_t(1 + rng() % 255) : uint8_t(rng());
       std::vector<uint8_t> enc(len + len / 254 + 2), dec(len + 1);
       auto n = CobsEncode(in, enc);
       ASSERT_TRUE(n.ok());
@@ -188,8 +189,8 @@ TEST(Protocol, CorruptLinkNeverAcceptsBadPacketsAndResyncs) {
   // (then both merge into one bad frame). That needs the drop to hit that one byte.
   EXPECT_LT(lost_undamaged, undamaged / 100 + 5);
   EXPECT_GT(d.stats().errors(), 0u);
-  printf("packets %d, undamaged %d, accepted %d, lost undamaged %d, decoder errors %u\n",
-         kPackets, undamaged, accepted, lost_undamaged, d.stats().errors());
+  printf("packets %d, undamaged %d, accepted %d, lost undamaged %d, decoder errors %u\n", kPackets,
+         undamaged, accepted, lost_undamaged, d.stats().errors());
 }
 
 TEST(Protocol, OversizeGarbageIsDiscardedAndDecoderRecovers) {
