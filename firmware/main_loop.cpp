@@ -205,19 +205,25 @@ Status MainLoop::Params::SetParam(uint16_t id, float value) {
 }
 
 void MainLoop::PollCommands() {
+  // Drains what the receive ring holds (bounded, so a flood cannot starve the frame loop).
+  // Read() stops at each delimiter, so the frame's arrival stamp is at hand for clock sync.
   uint8_t bytes[64];
-  const Result<size_t> n = uart_.Read(bytes);
-  if (!n.ok()) return;
-  for (size_t i = 0; i < *n; ++i) {
-    protocol::FrameView frame;
-    if (!rx_.Push(bytes[i], frame)) continue;
-    size_t reply_len = 0;
-    const protocol::CommandResult r = commands_.Handle(frame, seq_, packet_, reply_len);
-    if (reply_len > 0) {
-      ++seq_;
-      Send(std::span<const uint8_t>(packet_, reply_len));
+  size_t budget = kMaxRxBytesPerPoll;
+  while (budget > 0) {
+    const Result<size_t> n = uart_.Read(std::span<uint8_t>(bytes, budget < 64 ? budget : 64));
+    if (!n.ok() || *n == 0) break;
+    budget -= *n;
+    for (size_t i = 0; i < *n; ++i) {
+      protocol::FrameView frame;
+      if (!rx_.Push(bytes[i], frame)) continue;
+      size_t reply_len = 0;
+      const protocol::CommandResult r = commands_.Handle(frame, seq_, packet_, reply_len);
+      if (reply_len > 0) {
+        ++seq_;
+        Send(std::span<const uint8_t>(packet_, reply_len));
+      }
+      if (r.send_status) SendStatus();
     }
-    if (r.send_status) SendStatus();
   }
 }
 
@@ -229,6 +235,10 @@ void MainLoop::SendStatus() {
   status_.uptime_us = clock_.NowUs();
   status_.rx_errors = rx_.stats().errors();
   status_.command_errors = commands_.errors();
+  const hal::UartRxStats link = uart_.RxStats();
+  status_.rx_overruns = link.overruns;
+  status_.rx_ring_full = link.ring_full;
+  status_.rx_line_errors = link.line_errors;
   last_status_clock_us_ = status_.uptime_us;
   // Pairs per second of exposure time since the previous status packet.
   status_.frame_rate_mhz = 0;

@@ -29,6 +29,10 @@ inline constexpr size_t kBlobScratchBytes =
 /// the trial parse); in external RAM on the boards.
 inline constexpr size_t kUploadBufferBytes = 2 * kBlobScratchBytes;
 
+/// Received bytes decoded per Poll() at most: a full receive ring (2 KB), so commands keep up
+/// with the line while a flood cannot hold up the frame loop.
+inline constexpr size_t kMaxRxBytesPerPoll = 2048;
+
 /// Parameters the main computer may set (protocol kSetParam).
 enum ParamId : uint16_t {
   kParamFramePeriodUs = 1,     // 1000 .. 1000000

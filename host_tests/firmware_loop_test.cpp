@@ -5,6 +5,7 @@
 #include <array>
 #include <cstring>
 #include <memory>
+#include <vector>
 
 #include "core/common/blob.h"
 #include "core/common/bytes.h"
@@ -76,6 +77,7 @@ class FakeUart : public hal::Uart {
     rx_len_ += b.size();
   }
   bool rx_empty() const { return rx_pos_ == rx_len_; }
+  hal::UartRxStats rx_stats;  // what the board driver would report
 
  private:
   Status DoWrite(std::span<const uint8_t> b) override {
@@ -88,6 +90,7 @@ class FakeUart : public hal::Uart {
     return Status();
   }
   size_t DoWriteSpace() const override { return full ? 0 : kCapacity - size_; }
+  hal::UartRxStats DoRxStats() const override { return rx_stats; }
   Result<size_t> DoRead(std::span<uint8_t> out) override {
     const size_t n = std::min(out.size(), rx_len_ - rx_pos_);
     std::memcpy(out.data(), rx_.data() + rx_pos_, n);
@@ -481,6 +484,48 @@ TEST_F(MainLoopCommandsTest, ParametersAndStatusRequests) {
   loop_->RunUntilFinished();
   EXPECT_EQ(loop_->status().deadline_overruns, 3u);
   EXPECT_EQ(loop_->status().rx_errors, 1u);
+}
+
+// Issue 17: the board driver's receive losses reach the status packet, and one iteration drains
+// everything the receive ring holds (a whole 1 KB upload), not one 64-byte read.
+TEST_F(MainLoopCommandsTest, ReceiveLossesAreReportedAndOnePollDrainsAnUpload) {
+  Start();
+  uart_.rx_stats = hal::UartRxStats{3, 5, 7};
+  std::vector<uint8_t> blob(1024);
+  for (size_t i = 0; i < blob.size(); ++i) blob[i] = static_cast<uint8_t>(i * 7);
+  uint8_t p[5 + protocol::kMaxChunkBytes];
+  ByteWriter begin(p);
+  begin.U8(static_cast<uint8_t>(protocol::UploadTarget::kLut));
+  begin.U32(static_cast<uint32_t>(blob.size()));
+  begin.U32(Crc32(blob));
+  Command(protocol::MsgType::kUploadBegin, begin.written());
+  for (size_t off = 0; off < blob.size(); off += protocol::kMaxChunkBytes) {
+    ByteWriter chunk(p);
+    chunk.U8(static_cast<uint8_t>(protocol::UploadTarget::kLut));
+    chunk.U32(static_cast<uint32_t>(off));
+    chunk.Bytes(std::span<const uint8_t>(blob).subspan(off, protocol::kMaxChunkBytes));
+    Command(protocol::MsgType::kUploadChunk, chunk.written());
+  }
+  Command(protocol::MsgType::kRequestStatus, {});
+  loop_->Poll();
+  EXPECT_TRUE(uart_.rx_empty());
+  int acks, errors, statuses;
+  uint8_t code = 0;
+  Replies(acks, errors, statuses, code);
+  EXPECT_EQ(acks, 3);  // begin + two chunks
+  EXPECT_EQ(errors, 0);
+  ASSERT_EQ(statuses, 2);
+  protocol::Decoder dec;
+  protocol::FrameView f;
+  protocol::StatusReport last;
+  for (uint8_t b : uart_.bytes()) {
+    if (dec.Push(b, f) && f.type == protocol::MsgType::kStatus) {
+      ASSERT_TRUE(protocol::ParseStatus(f.payload, last).ok());
+    }
+  }
+  EXPECT_EQ(last.rx_overruns, 3u);
+  EXPECT_EQ(last.rx_ring_full, 5u);
+  EXPECT_EQ(last.rx_line_errors, 7u);
 }
 
 TEST_F(MainLoopCommandsTest, RobotPoseParametersReachThePipeline) {

@@ -2,8 +2,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <string>
 #include <random>
+#include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -41,7 +41,8 @@ TEST(Cobs, RoundTripAllLengthsAndZeroPatterns) {
   for (size_t len = 0; len < 700; len += (len < 300 ? 1 : 37)) {
     for (int pattern = 0; pattern < 3; ++pattern) {
       std::vector<uint8_t> in(len);
-      for (auto& b : in) b = pattern == 0 ? 0 : pattern == 1 ? uint8_t(1 + rng() % 255) : uint8_t(rng());
+      for (auto& b : in)
+        b = pattern == 0 ? 0 : pattern == 1 ? uint8_t(1 + rng() % 255) : uint8_t(rng());
       std::vector<uint8_t> enc(len + len / 254 + 2), dec(len + 1);
       auto n = CobsEncode(in, enc);
       ASSERT_TRUE(n.ok());
@@ -85,6 +86,10 @@ TEST(Protocol, StatusRoundTrip) {
   s.deadline_overruns = 2;
   s.calibration_id = 0xDEADBEEF;
   s.lut_state = static_cast<uint8_t>(BlobState::kCorrupt);
+  s.fault_flags = 5;
+  s.rx_overruns = 7;
+  s.rx_ring_full = 11;
+  s.rx_line_errors = 13;
   std::vector<uint8_t> out(kMaxWireFrameBytes);
   auto n = EncodeStatus(s, 1, out);
   ASSERT_TRUE(n.ok());
@@ -99,6 +104,11 @@ TEST(Protocol, StatusRoundTrip) {
   EXPECT_EQ(r.deadline_overruns, 2u);
   EXPECT_EQ(r.calibration_id, 0xDEADBEEFu);
   EXPECT_EQ(r.lut_state, static_cast<uint8_t>(BlobState::kCorrupt));
+  EXPECT_EQ(r.fault_flags, 5u);
+  EXPECT_EQ(r.rx_overruns, 7u);
+  EXPECT_EQ(r.rx_ring_full, 11u);
+  EXPECT_EQ(r.rx_line_errors, 13u);
+  EXPECT_EQ(f.payload.size(), kStatusPayloadBytes);
 }
 
 TEST(Protocol, RejectsNaNAndBadLengths) {
@@ -179,8 +189,8 @@ TEST(Protocol, CorruptLinkNeverAcceptsBadPacketsAndResyncs) {
   // (then both merge into one bad frame). That needs the drop to hit that one byte.
   EXPECT_LT(lost_undamaged, undamaged / 100 + 5);
   EXPECT_GT(d.stats().errors(), 0u);
-  printf("packets %d, undamaged %d, accepted %d, lost undamaged %d, decoder errors %u\n",
-         kPackets, undamaged, accepted, lost_undamaged, d.stats().errors());
+  printf("packets %d, undamaged %d, accepted %d, lost undamaged %d, decoder errors %u\n", kPackets,
+         undamaged, accepted, lost_undamaged, d.stats().errors());
 }
 
 TEST(Protocol, OversizeGarbageIsDiscardedAndDecoderRecovers) {
@@ -216,6 +226,9 @@ TEST(Protocol, GoldenStreamMatchesCommittedFixture) {
   st.frames_processed = 30;
   st.frame_rate_mhz = 30000;
   st.calibration_id = 0x1234;
+  st.rx_overruns = 1;  // the appended receive-loss fields, at distinct values
+  st.rx_ring_full = 2;
+  st.rx_line_errors = 3;
   auto b = EncodeStatus(st, 42, std::span(stream).subspan(*a));
   ASSERT_TRUE(b.ok());
   stream.resize(*a + *b);

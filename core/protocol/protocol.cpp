@@ -17,7 +17,8 @@ constexpr char kSchema[] =
     "status:uptime_us u64,frames_processed frame_rate_mhz frames_dropped deadline_overruns "
     "packets_dropped pairs_omni_missing pairs_persp_missing pairs_out_of_sync pairs_out_of_order "
     "pairs_torn calibration_id lut_id u32,calibration_state lut_state u8,reserved u16,"
-    "rx_errors command_errors pipeline_errors last_proc_us max_proc_us fault_flags u32";
+    "rx_errors command_errors pipeline_errors last_proc_us max_proc_us fault_flags u32,"
+    "rx_overruns rx_ring_full rx_line_errors u32";
 
 bool Finite(float v) { return std::isfinite(v); }
 
@@ -63,7 +64,8 @@ Result<size_t> CobsDecode(std::span<const uint8_t> in, std::span<uint8_t> out) {
     if (code == 0) return Status(StatusCode::kDataLoss, "cobs: zero byte inside a frame");
     const size_t run = code - 1u;
     if (run > in.size() - i) return Status(StatusCode::kDataLoss, "cobs: code past end of frame");
-    if (run > out.size() - o) return Status(StatusCode::kResourceExhausted, "cobs: output too small");
+    if (run > out.size() - o)
+      return Status(StatusCode::kResourceExhausted, "cobs: output too small");
     for (size_t k = 0; k < run; ++k) {
       if (in[i] == 0) return Status(StatusCode::kDataLoss, "cobs: zero byte inside a frame");
       out[o++] = in[i++];
@@ -159,17 +161,18 @@ Result<size_t> EncodeStatus(const StatusReport& s, uint32_t seq, std::span<uint8
   uint8_t p[kStatusPayloadBytes];
   ByteWriter w(p);
   w.U64(s.uptime_us);
-  for (uint32_t v : {s.frames_processed, s.frame_rate_mhz, s.frames_dropped, s.deadline_overruns,
-                     s.packets_dropped, s.pairs_omni_missing, s.pairs_persp_missing,
-                     s.pairs_out_of_sync, s.pairs_out_of_order, s.pairs_torn, s.calibration_id,
-                     s.lut_id}) {
+  for (uint32_t v :
+       {s.frames_processed, s.frame_rate_mhz, s.frames_dropped, s.deadline_overruns,
+        s.packets_dropped, s.pairs_omni_missing, s.pairs_persp_missing, s.pairs_out_of_sync,
+        s.pairs_out_of_order, s.pairs_torn, s.calibration_id, s.lut_id}) {
     w.U32(v);
   }
   w.U8(s.calibration_state);
   w.U8(s.lut_state);
   w.U16(s.reserved);
-  for (uint32_t v : {s.rx_errors, s.command_errors, s.pipeline_errors, s.last_proc_us,
-                     s.max_proc_us, s.fault_flags}) {
+  for (uint32_t v :
+       {s.rx_errors, s.command_errors, s.pipeline_errors, s.last_proc_us, s.max_proc_us,
+        s.fault_flags, s.rx_overruns, s.rx_ring_full, s.rx_line_errors}) {
     w.U32(v);
   }
   if (w.size() != kStatusPayloadBytes) return Status(StatusCode::kInternal, "status payload size");
@@ -183,16 +186,17 @@ Status ParseStatus(std::span<const uint8_t> payload, StatusReport& out) {
   ByteReader r(payload);
   StatusReport s;
   s.uptime_us = r.U64();
-  uint32_t* fields[] = {&s.frames_processed,    &s.frame_rate_mhz,     &s.frames_dropped,
-                        &s.deadline_overruns,   &s.packets_dropped,    &s.pairs_omni_missing,
-                        &s.pairs_persp_missing, &s.pairs_out_of_sync,  &s.pairs_out_of_order,
-                        &s.pairs_torn,          &s.calibration_id,     &s.lut_id};
+  uint32_t* fields[] = {&s.frames_processed,    &s.frame_rate_mhz,    &s.frames_dropped,
+                        &s.deadline_overruns,   &s.packets_dropped,   &s.pairs_omni_missing,
+                        &s.pairs_persp_missing, &s.pairs_out_of_sync, &s.pairs_out_of_order,
+                        &s.pairs_torn,          &s.calibration_id,    &s.lut_id};
   for (uint32_t* f : fields) *f = r.U32();
   s.calibration_state = r.U8();
   s.lut_state = r.U8();
   s.reserved = r.U16();
   uint32_t* tail[] = {&s.rx_errors,    &s.command_errors, &s.pipeline_errors,
-                      &s.last_proc_us, &s.max_proc_us,    &s.fault_flags};
+                      &s.last_proc_us, &s.max_proc_us,    &s.fault_flags,
+                      &s.rx_overruns,  &s.rx_ring_full,   &s.rx_line_errors};
   for (uint32_t* f : tail) *f = r.U32();
   if (s.calibration_state > 2 || s.lut_state > 2) {
     return Status(StatusCode::kInvalidArgument, "status: unknown blob state");

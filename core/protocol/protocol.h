@@ -38,7 +38,7 @@ enum class MsgType : uint8_t {
 uint16_t SchemaHash();
 
 inline constexpr size_t kBallStatePayloadBytes = 92;
-inline constexpr size_t kStatusPayloadBytes = 84;
+inline constexpr size_t kStatusPayloadBytes = 96;
 
 /// Health of the coprocessor, sent at least once per second.
 struct StatusReport {
@@ -58,12 +58,16 @@ struct StatusReport {
   uint8_t calibration_state = 0;  // BlobState
   uint8_t lut_state = 0;          // BlobState
   uint16_t reserved = 0;
-  uint32_t rx_errors = 0;      // corrupt frames received from the main computer
-  uint32_t command_errors = 0; // well-formed but refused commands
+  uint32_t rx_errors = 0;       // corrupt frames received from the main computer
+  uint32_t command_errors = 0;  // well-formed but refused commands
   uint32_t pipeline_errors = 0;
   uint32_t last_proc_us = 0;
   uint32_t max_proc_us = 0;
-  uint32_t fault_flags = 0;    // board-specific fault bits (watchdog, camera stalled, ...)
+  uint32_t fault_flags = 0;  // board-specific fault bits (watchdog, camera stalled, ...)
+  // Receive side of the UART link (hal::UartRxStats); appended, so older fields keep offsets.
+  uint32_t rx_overruns = 0;     // bytes the UART hardware lost
+  uint32_t rx_ring_full = 0;    // frames dropped: the receive ring had no room
+  uint32_t rx_line_errors = 0;  // framing / noise / parity errors (line breaks)
 };
 
 enum class BlobState : uint8_t { kOk = 0, kMissing = 1, kCorrupt = 2 };

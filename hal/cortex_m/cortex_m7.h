@@ -114,6 +114,43 @@ inline void InitDataAndBss() {
   std::memset(&__bss_start, 0, bss_bytes);
 }
 
+// Critical sections for state shared with interrupt handlers. Host builds of board drivers
+// (tests against register fakes) run the "interrupts" synchronously on one thread: no-ops.
+#if defined(__arm__)
+inline uint32_t IrqSave() {
+  uint32_t primask;
+  asm volatile("mrs %0, primask\n cpsid i" : "=r"(primask)::"memory");
+  return primask;
+}
+inline void IrqRestore(uint32_t primask) {
+  asm volatile("msr primask, %0" ::"r"(primask) : "memory");
+}
+#else
+inline uint32_t IrqSave() { return 0; }
+inline void IrqRestore(uint32_t) {}
+#endif
+
+class IrqLock {
+ public:
+  IrqLock() : primask_(IrqSave()) {}
+  ~IrqLock() { IrqRestore(primask_); }
+  IrqLock(const IrqLock&) = delete;
+  IrqLock& operator=(const IrqLock&) = delete;
+
+ private:
+  uint32_t primask_;
+};
+
+// Templates so that host tests can pass a register fake (ISER is write-one-to-set).
+template <typename Nvic = NvicRegs>
+inline void NvicEnable(Nvic& nvic, int irq) {
+  nvic.ISER[irq >> 5] = 1u << (irq & 31);
+}
+template <typename Nvic = NvicRegs>
+inline void NvicPriority(Nvic& nvic, int irq, uint8_t prio) {
+  nvic.IPR[irq] = static_cast<uint8_t>(prio << 4);
+}
+
 /// Static constructors (after .data/.bss and anything they rely on, e.g. external RAM).
 inline void RunConstructors() {
   for (auto** f = __init_array_start; f < __init_array_end; ++f) (*f)();

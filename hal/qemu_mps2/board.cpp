@@ -45,7 +45,7 @@ __attribute__((section(".psram"), aligned(32))) uint8_t g_upload[kUploadBufferBy
 constexpr uint32_t kWatchdogTimeoutMs = 1000;
 
 char g_cmdline[512];
-CmsdkUart* g_uart = nullptr;            // for the flush at exit
+CmsdkUart* g_uart = nullptr;            // for the receive interrupt and the flush at exit
 SemihostingCamera* g_camera = nullptr;  // for the exit summary
 
 // Finds "key=" in the command line and copies its value; false if absent or too long.
@@ -168,12 +168,12 @@ void LoadBlobArg(RamStorage& storage, const char* key, const int (&slots)[2], Bl
 }  // namespace
 
 Status BoardInit(BoardServices& out) {
-  static CmsdkUart uart(kUart0);
+  static CmsdkUart uart(kUart0, kNvic);
   static DualTimerClock clock(kDualTimer1);
   static RamStorage storage(g_storage_mem);
-  uart.Init();
-  g_uart = &uart;
   clock.Init();
+  g_uart = &uart;
+  uart.Init(&clock);
   storage.Init();
 
   if (!SemiGetCmdline(g_cmdline, sizeof(g_cmdline))) {
@@ -261,3 +261,5 @@ void BoardExit(int code) {
 }
 
 }  // namespace bv::fw
+
+extern "C" void UART0RX_IRQHandler() { bv::fw::g_uart->OnRxIrq(); }

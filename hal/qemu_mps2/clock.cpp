@@ -11,6 +11,7 @@ void DualTimerClock::Init() {
 }
 
 uint64_t DualTimerClock::Ticks() const {
+  cm7::IrqLock lock;  // also read by the UART receive interrupt (arrival stamps)
   const uint32_t count = 0xFFFFFFFFu - regs_->VALUE;  // counts down from LOAD
   if (count < last_count_) high_ += 1ull << 32;
   last_count_ = count;

@@ -8,15 +8,17 @@
 
 namespace bv::qemu {
 
-class DualTimerClock : public hal::Clock {
+class DualTimerClock final : public hal::Clock {
  public:
   explicit DualTimerClock(CmsdkDualTimerRegs* regs) : regs_(regs) {}
   void Init();
   /// 64-bit tick count; must be called at least once per 2^32 ticks (171 s) to see every wrap.
   uint64_t Ticks() const;
+  /// NowUs() without the virtual call, for interrupt handlers (a bounded stack).
+  uint64_t ReadUs() const { return Ticks() / (kTimerClockHz / 1000000); }
 
  private:
-  uint64_t DoNowUs() const override { return Ticks() / (kTimerClockHz / 1000000); }
+  uint64_t DoNowUs() const override { return ReadUs(); }
 
   CmsdkDualTimerRegs* regs_;
   mutable uint32_t last_count_ = 0;  // elapsed ticks (up-count) at the last read

@@ -25,7 +25,11 @@ struct CmsdkUartRegs {  // CMSDK APB UART
 inline constexpr uint32_t kUartStateTxFull = 1u << 0;
 inline constexpr uint32_t kUartStateRxFull = 1u << 1;
 inline constexpr uint32_t kUartCtrlTxEn = 1u << 0;
+inline constexpr uint32_t kUartStateRxOverrun = 1u << 3;  // write 1 to clear
 inline constexpr uint32_t kUartCtrlRxEn = 1u << 1;
+inline constexpr uint32_t kUartCtrlRxIntEn = 1u << 3;
+inline constexpr uint32_t kUartIntRx = 1u << 1;  // INTSTATUS, write 1 to clear
+inline constexpr int kIrqUart0Rx = 0;            // AN500: UART0 RX = IRQ 0, TX = IRQ 1
 
 struct CmsdkDualTimerRegs {  // CMSDK dual timer, timer 1 at +0x00
   BV_RW LOAD;

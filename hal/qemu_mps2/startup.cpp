@@ -12,6 +12,7 @@ int main();
 [[noreturn]] void Fault_Handler();
 void Default_Handler();
 void WatchdogTick_IRQHandler();  // hal/qemu_mps2/watchdog.cpp
+void UART0RX_IRQHandler();       // hal/qemu_mps2/board.cpp
 }
 
 namespace {
@@ -42,8 +43,8 @@ extern "C" __attribute__((section(".vectors"), used)) const Vector g_vectors[16 
     nullptr,
     Default_Handler,          // PendSV
     WatchdogTick_IRQHandler,  // SysTick
-    // External interrupts are not used: everything is polled.
-    Default_Handler,
+    // External interrupts: only UART0 RX (IRQ 0); the rest is polled.
+    UART0RX_IRQHandler,
     Default_Handler,
     Default_Handler,
     Default_Handler,

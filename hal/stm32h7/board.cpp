@@ -24,7 +24,9 @@ DcmiCamera g_camera(g_capture_slots, g_clock, bv::hal::PairerConfig());
 
 }  // namespace
 
-extern "C" void DMA1_Stream0_IRQHandler() { g_uart.OnDmaIrq(); }
+extern "C" void DMA1_Stream0_IRQHandler() { g_uart.OnTxDmaIrq(); }
+extern "C" void DMA1_Stream1_IRQHandler() { g_uart.OnRxDmaIrq(); }
+extern "C" void USART1_IRQHandler() { g_uart.OnUsartIrq(); }
 extern "C" void DMA2_Stream1_IRQHandler() { g_camera.OnDmaIrq(); }
 extern "C" void DCMI_IRQHandler() { g_camera.OnDcmiIrq(); }
 
@@ -34,7 +36,7 @@ Status BoardInit(BoardServices& out) {
   PinsInit();
   SdramInit();
   g_clock.Init();
-  g_uart.Init();
+  g_uart.Init(&g_clock);
   WatchdogInit();
   out.camera = &g_camera;
   out.uart = &g_uart;

@@ -15,7 +15,7 @@ void Tim2Clock::Init() {
   kTim2->CR1 = 1;
 }
 
-uint64_t Tim2Clock::DoNowUs() const {
+uint64_t Tim2Clock::ReadUs() const {
   // Also called from the capture interrupt (exposure timestamps): keep the extension atomic.
   const uint32_t primask = IrqSave();
   const uint32_t now = kTim2->CNT;

@@ -6,12 +6,14 @@
 
 namespace bv::h7 {
 
-class Tim2Clock : public hal::Clock {
+class Tim2Clock final : public hal::Clock {
  public:
   void Init();
+  /// NowUs() without the virtual call, for interrupt handlers (a bounded stack).
+  uint64_t ReadUs() const;
 
  private:
-  uint64_t DoNowUs() const override;
+  uint64_t DoNowUs() const override { return ReadUs(); }
   mutable uint32_t last_ = 0;
   mutable uint64_t high_ = 0;
 };

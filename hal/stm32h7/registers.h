@@ -143,9 +143,9 @@ struct DmaRegs {  // DMA1 0x40020000, DMA2 0x40020400
   DmaStreamRegs S[8];
 };
 static_assert(offsetof(DmaRegs, S) == 0x10 && sizeof(DmaStreamRegs) == 0x18);
-inline constexpr uint32_t kDmaCrEn = 1u << 0, kDmaCrTeie = 1u << 2, kDmaCrTcie = 1u << 4,
-                          kDmaCrDirM2P = 1u << 6, kDmaCrCirc = 1u << 8, kDmaCrMinc = 1u << 10,
-                          kDmaCrPsize32 = 2u << 11, kDmaCrMsize32 = 2u << 13,
+inline constexpr uint32_t kDmaCrEn = 1u << 0, kDmaCrTeie = 1u << 2, kDmaCrHtie = 1u << 3,
+                          kDmaCrTcie = 1u << 4, kDmaCrDirM2P = 1u << 6, kDmaCrCirc = 1u << 8,
+                          kDmaCrMinc = 1u << 10, kDmaCrPsize32 = 2u << 11, kDmaCrMsize32 = 2u << 13,
                           kDmaCrPlHigh = 2u << 16, kDmaCrPlVeryHigh = 3u << 16,
                           kDmaCrDbm = 1u << 18, kDmaCrCt = 1u << 19, kDmaCrMburst4 = 1u << 23;
 /// Bit offset of a stream's flags in LISR/HISR (and LIFCR/HIFCR).
@@ -153,29 +153,36 @@ constexpr uint32_t DmaFlagShift(int stream) {
   constexpr uint32_t kShift[4] = {0, 6, 16, 22};
   return kShift[stream & 3];
 }
-inline constexpr uint32_t kDmaFlagTc = 1u << 5, kDmaFlagTe = 1u << 3, kDmaFlagAll = 0x3Du;
+inline constexpr uint32_t kDmaFlagTc = 1u << 5, kDmaFlagHt = 1u << 4, kDmaFlagTe = 1u << 3,
+                          kDmaFlagAll = 0x3Du;
 
 struct DmamuxRegs {  // DMAMUX1 0x40020800: channel 0..7 = DMA1 stream 0..7, 8..15 = DMA2
   BV_RW CCR[16];     // DMAREQ_ID 7:0
 };
+inline constexpr uint32_t kDmamuxReqUsart1Rx = 41;
 inline constexpr uint32_t kDmamuxReqUsart1Tx = 42;
 inline constexpr uint32_t kDmamuxReqDcmi = 75;
 
 struct UsartRegs {  // USART1 0x40011000
-  BV_RW CR1;        // UE 0, RE 2, TE 3, FIFOEN 29
+  BV_RW CR1;        // UE 0, RE 2, TE 3, IDLEIE 4, FIFOEN 29
   BV_RW CR2;
-  BV_RW CR3;  // DMAR 6, DMAT 7
+  BV_RW CR3;  // EIE 0, DMAR 6, DMAT 7, DDRE 13
   BV_RW BRR;
   BV_RW GTPR;
   BV_RW RTOR;
   BV_RW RQR;
-  BV_RO ISR;  // ORE 3, RXNE 5, TC 6, TXE 7
-  BV_RW ICR;  // ORECF 3
+  BV_RO ISR;  // PE 0, FE 1, NE 2, ORE 3, IDLE 4, RXNE 5, TC 6, TXE 7
+  BV_RW ICR;  // PECF 0, FECF 1, NECF 2, ORECF 3, IDLECF 4 (same bits as ISR)
   BV_RO RDR;
   BV_RW TDR;  // 0x28
   BV_RW PRESC;
 };
 static_assert(offsetof(UsartRegs, TDR) == 0x28);
+inline constexpr uint32_t kUsartCr1Ue = 1u << 0, kUsartCr1Re = 1u << 2, kUsartCr1Te = 1u << 3,
+                          kUsartCr1Idleie = 1u << 4;
+inline constexpr uint32_t kUsartCr3Eie = 1u << 0, kUsartCr3Dmar = 1u << 6, kUsartCr3Dmat = 1u << 7;
+inline constexpr uint32_t kUsartPe = 1u << 0, kUsartFe = 1u << 1, kUsartNe = 1u << 2,
+                          kUsartOre = 1u << 3, kUsartIdle = 1u << 4, kUsartRxne = 1u << 5;
 
 struct TimRegs {  // TIM2 0x40000000 (32-bit)
   BV_RW CR1;
@@ -215,6 +222,12 @@ static_assert(offsetof(FmcRegs, SDCR) == 0x140 && offsetof(FmcRegs, SDSR) == 0x1
 #undef BV_RW
 #undef BV_RO
 
+/// A buffer or register address as the 32-bit bus address a DMA register takes (host tests:
+/// the low half, which the register fakes compare).
+inline uint32_t BusAddress(const volatile void* p) {
+  return static_cast<uint32_t>(reinterpret_cast<uintptr_t>(p));
+}
+
 template <typename T>
 inline T* Reg(uintptr_t address) {
   return reinterpret_cast<T*>(address);
@@ -236,28 +249,23 @@ inline FmcRegs* const kFmc = Reg<FmcRegs>(0x52004000u);
 
 // Interrupt numbers (RM0433 table 143).
 inline constexpr int kIrqDma1Stream0 = 11;
+inline constexpr int kIrqDma1Stream1 = 12;
 inline constexpr int kIrqUsart1 = 37;
 inline constexpr int kIrqDma2Stream1 = 57;
 inline constexpr int kIrqDcmi = 78;
 inline constexpr int kIrqCount = 150;
 
-inline void NvicEnable(int irq) { kNvic->ISER[irq >> 5] = 1u << (irq & 31); }
-inline void NvicPriority(int irq, uint8_t prio) {
-  kNvic->IPR[irq] = static_cast<uint8_t>(prio << 4);
-}
+inline void NvicEnable(int irq) { cm7::NvicEnable(*kNvic, irq); }
+inline void NvicPriority(int irq, uint8_t prio) { cm7::NvicPriority(*kNvic, irq, prio); }
 
-// Critical sections for state shared with the capture / UART interrupts.
-inline uint32_t IrqSave() {
-  uint32_t primask;
-  asm volatile("mrs %0, primask\n cpsid i" : "=r"(primask)::"memory");
-  return primask;
-}
-inline void IrqRestore(uint32_t primask) {
-  asm volatile("msr primask, %0" ::"r"(primask) : "memory");
-}
+using cm7::IrqLock;
+using cm7::IrqRestore;
+using cm7::IrqSave;
 
-// D-cache maintenance by address (32-byte lines) around DMA buffers.
+// D-cache maintenance by address (32-byte lines) around DMA buffers. Host builds (driver tests
+// against register fakes) have no cache to maintain.
 inline constexpr uintptr_t kCacheLine = 32;
+#if defined(__arm__)
 inline void DcacheClean(const void* p, size_t n) {
   uintptr_t a = reinterpret_cast<uintptr_t>(p) & ~(kCacheLine - 1);
   const uintptr_t end = reinterpret_cast<uintptr_t>(p) + n;
@@ -272,5 +280,9 @@ inline void DcacheInvalidate(const void* p, size_t n) {
   for (; a < end; a += kCacheLine) kScb->DCIMVAC = static_cast<uint32_t>(a);
   asm volatile("dsb\n isb" ::: "memory");
 }
+#else
+inline void DcacheClean(const void*, size_t) {}
+inline void DcacheInvalidate(const void*, size_t) {}
+#endif
 
 }  // namespace bv::h7

@@ -15,6 +15,8 @@ void Default_Handler();
 void DCMI_IRQHandler();
 void DMA2_Stream1_IRQHandler();
 void DMA1_Stream0_IRQHandler();
+void DMA1_Stream1_IRQHandler();
+void USART1_IRQHandler();
 }
 
 namespace {
@@ -55,6 +57,10 @@ constexpr Vector MakeTable(int i) {
   switch (i - 16) {
     case bv::h7::kIrqDma1Stream0:
       return DMA1_Stream0_IRQHandler;
+    case bv::h7::kIrqDma1Stream1:
+      return DMA1_Stream1_IRQHandler;
+    case bv::h7::kIrqUsart1:
+      return USART1_IRQHandler;
     case bv::h7::kIrqDma2Stream1:
       return DMA2_Stream1_IRQHandler;
     case bv::h7::kIrqDcmi:

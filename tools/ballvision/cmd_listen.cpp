@@ -37,17 +37,28 @@ int ListenUsage() {
 
 speed_t BaudFlag(long baud) {
   switch (baud) {
-    case 9600: return B9600;
-    case 19200: return B19200;
-    case 38400: return B38400;
-    case 57600: return B57600;
-    case 115200: return B115200;
-    case 230400: return B230400;
-    case 460800: return B460800;
-    case 921600: return B921600;
-    case 1000000: return B1000000;
-    case 2000000: return B2000000;
-    default: return 0;
+    case 9600:
+      return B9600;
+    case 19200:
+      return B19200;
+    case 38400:
+      return B38400;
+    case 57600:
+      return B57600;
+    case 115200:
+      return B115200;
+    case 230400:
+      return B230400;
+    case 460800:
+      return B460800;
+    case 921600:
+      return B921600;
+    case 1000000:
+      return B1000000;
+    case 2000000:
+      return B2000000;
+    default:
+      return 0;
   }
 }
 
@@ -152,7 +163,7 @@ int CmdListen(int argc, char** argv) {
                   "packets_dropped,pairs_omni_missing,pairs_persp_missing,pairs_out_of_sync,"
                   "pairs_out_of_order,pairs_torn,calibration_id,lut_id,calibration_state,"
                   "lut_state,rx_errors,command_errors,pipeline_errors,last_proc_us,max_proc_us,"
-                  "fault_flags\n";
+                  "fault_flags,rx_overruns,rx_ring_full,rx_line_errors\n";
   }
   protocol::Decoder decoder;
   protocol::FrameView frame;
@@ -162,8 +173,8 @@ int CmdListen(int argc, char** argv) {
   const auto start = std::chrono::steady_clock::now();
   uint8_t buf[4096];
   for (;;) {
-    if (seconds > 0 && std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
-                               .count() > seconds) {
+    if (seconds > 0 &&
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() > seconds) {
       break;
     }
     const ssize_t n = read(fd, buf, sizeof buf);
@@ -190,10 +201,11 @@ int CmdListen(int argc, char** argv) {
         ++balls;
         if (csv.is_open()) csv << StatesCsvRow(frame.seq, s, true);
         if (!quiet && balls % 10 == 1) {
-          std::printf("ball  seq %6u t %10.3f s  %-5s  x %7.3f y %7.3f z %6.3f  v %6.2f %6.2f "
-                      "%6.2f  %-8s gap %.3f\n",
-                      frame.seq, s.t_us * 1e-6, s.found ? "found" : "-", s.x_m, s.y_m, s.z_m,
-                      s.vx_mps, s.vy_mps, s.vz_mps, BallModeName(s.mode), s.ray_gap_m);
+          std::printf(
+              "ball  seq %6u t %10.3f s  %-5s  x %7.3f y %7.3f z %6.3f  v %6.2f %6.2f "
+              "%6.2f  %-8s gap %.3f\n",
+              frame.seq, s.t_us * 1e-6, s.found ? "found" : "-", s.x_m, s.y_m, s.z_m, s.vx_mps,
+              s.vy_mps, s.vz_mps, BallModeName(s.mode), s.ray_gap_m);
         }
       } else if (frame.type == protocol::MsgType::kStatus) {
         protocol::StatusReport st;
@@ -207,21 +219,24 @@ int CmdListen(int argc, char** argv) {
                      << st.frame_rate_mhz / 1000.0 << ',' << st.frames_dropped << ','
                      << st.deadline_overruns << ',' << st.packets_dropped << ','
                      << st.pairs_omni_missing << ',' << st.pairs_persp_missing << ','
-                     << st.pairs_out_of_sync << ',' << st.pairs_out_of_order << ','
-                     << st.pairs_torn << ',' << st.calibration_id << ',' << st.lut_id << ','
-                     << int(st.calibration_state) << ',' << int(st.lut_state) << ','
-                     << st.rx_errors << ',' << st.command_errors << ',' << st.pipeline_errors
-                     << ',' << st.last_proc_us << ',' << st.max_proc_us << ',' << st.fault_flags
+                     << st.pairs_out_of_sync << ',' << st.pairs_out_of_order << ',' << st.pairs_torn
+                     << ',' << st.calibration_id << ',' << st.lut_id << ','
+                     << int(st.calibration_state) << ',' << int(st.lut_state) << ',' << st.rx_errors
+                     << ',' << st.command_errors << ',' << st.pipeline_errors << ','
+                     << st.last_proc_us << ',' << st.max_proc_us << ',' << st.fault_flags << ','
+                     << st.rx_overruns << ',' << st.rx_ring_full << ',' << st.rx_line_errors
                      << '\n';
         }
         if (!quiet) {
-          std::printf("status seq %5u up %8.3f s  frames %6u  %.1f Hz  dropped %u  overruns %u  "
-                      "pkts dropped %u  calib %s lut %s  proc %u us (max %u)\n",
-                      frame.seq, st.uptime_us * 1e-6, st.frames_processed,
-                      st.frame_rate_mhz / 1000.0, st.frames_dropped, st.deadline_overruns,
-                      st.packets_dropped, st.calibration_state == 0 ? "ok" : "MISSING/CORRUPT",
-                      st.lut_state == 0 ? "ok" : "MISSING/CORRUPT", st.last_proc_us,
-                      st.max_proc_us);
+          std::printf(
+              "status seq %5u up %8.3f s  frames %6u  %.1f Hz  dropped %u  overruns %u  "
+              "pkts dropped %u  calib %s lut %s  proc %u us (max %u)  rx lost: overrun "
+              "%u ring-full %u line %u\n",
+              frame.seq, st.uptime_us * 1e-6, st.frames_processed, st.frame_rate_mhz / 1000.0,
+              st.frames_dropped, st.deadline_overruns, st.packets_dropped,
+              st.calibration_state == 0 ? "ok" : "MISSING/CORRUPT",
+              st.lut_state == 0 ? "ok" : "MISSING/CORRUPT", st.last_proc_us, st.max_proc_us,
+              st.rx_overruns, st.rx_ring_full, st.rx_line_errors);
         }
       } else {
         ++others;
@@ -230,10 +245,11 @@ int CmdListen(int argc, char** argv) {
   }
   if (fd != STDIN_FILENO) close(fd);
   const auto& ds = decoder.stats();
-  std::printf("summary: ball_states=%u status=%u other=%u bad_payloads=%u seq_gaps=%u "
-              "decoder_errors=%u (crc %u, cobs %u, oversize %u, short %u, version %u, length %u)\n",
-              balls, statuses, others, bad_payloads, seq_gaps, ds.errors(), ds.crc_errors,
-              ds.cobs_errors, ds.oversize, ds.short_frames, ds.version_errors, ds.length_errors);
+  std::printf(
+      "summary: ball_states=%u status=%u other=%u bad_payloads=%u seq_gaps=%u "
+      "decoder_errors=%u (crc %u, cobs %u, oversize %u, short %u, version %u, length %u)\n",
+      balls, statuses, others, bad_payloads, seq_gaps, ds.errors(), ds.crc_errors, ds.cobs_errors,
+      ds.oversize, ds.short_frames, ds.version_errors, ds.length_errors);
   return (balls + statuses) > 0 ? 0 : 1;
 }
 

@@ -83,7 +83,9 @@ def main(argv=None) -> int:
             elif isinstance(msg, StatusReport):
                 statuses += 1
                 print(f"status: {msg.frames_processed} frames, {msg.frame_rate_hz:.1f} Hz, "
-                      f"dropped {msg.frames_dropped}, overruns {msg.deadline_overruns}")
+                      f"dropped {msg.frames_dropped}, overruns {msg.deadline_overruns}, "
+                      f"rx lost: uart overrun {msg.rx_overruns}, ring full {msg.rx_ring_full}, "
+                      f"line errors {msg.rx_line_errors}")
     errs = sum(dec.errors.values())
     print(f"summary: ball_states={balls} status={statuses} decoder_errors={errs} {dec.errors}")
     return 0 if balls + statuses else 1

@@ -19,15 +19,16 @@ _SCHEMA = (
     "status:uptime_us u64,frames_processed frame_rate_mhz frames_dropped deadline_overruns "
     "packets_dropped pairs_omni_missing pairs_persp_missing pairs_out_of_sync pairs_out_of_order "
     "pairs_torn calibration_id lut_id u32,calibration_state lut_state u8,reserved u16,"
-    "rx_errors command_errors pipeline_errors last_proc_us max_proc_us fault_flags u32")
+    "rx_errors command_errors pipeline_errors last_proc_us max_proc_us fault_flags u32,"
+    "rx_overruns rx_ring_full rx_line_errors u32")
 SCHEMA_HASH = zlib.crc32(_SCHEMA.encode()) & 0xFFFF
 
 MODES = ("none", "rolling", "flying", "bouncing")
 FLAG_SEEN_OMNI, FLAG_SEEN_PERSP, FLAG_HAS_BOUNCE, FLAG_HAS_PREDICTION = 1, 2, 1 << 11, 1 << 12
 
 _BALL = struct.Struct("<QHBB3f3ff2f2fQ2fI3fI")
-_STATUS = struct.Struct("<Q12IBBH6I")
-assert _BALL.size == 92 and _STATUS.size == 84
+_STATUS = struct.Struct("<Q12IBBH9I")
+assert _BALL.size == 92 and _STATUS.size == 96
 
 
 @dataclass
@@ -82,6 +83,9 @@ class StatusReport:
     last_proc_us: int
     max_proc_us: int
     fault_flags: int
+    rx_overruns: int
+    rx_ring_full: int
+    rx_line_errors: int
 
 
 def cobs_encode(data: bytes) -> bytes:

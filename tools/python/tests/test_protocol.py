@@ -30,6 +30,8 @@ class ProtocolTest(unittest.TestCase):
         self.assertEqual(status.frames_processed, 30)
         self.assertAlmostEqual(status.frame_rate_hz, 30.0)
         self.assertEqual(status.calibration_id, 0x1234)
+        self.assertEqual((status.rx_overruns, status.rx_ring_full, status.rx_line_errors),
+                         (1, 2, 3))
 
     def test_python_encoder_matches_cpp_bytes(self):
         data = open(FIXTURE, "rb").read()
