@@ -27,14 +27,18 @@ Status FieldFeatureExtractor::Init(const OmniScanConfig& scan, const OmniCalibra
   if (scan.features.rays <= 0) {
     return Status(StatusCode::kInvalidArgument, "field features: the scan table has no rays");
   }
-  n_radii_ = OmniFeatureRadii(scan, radii_, OmniFeatureRays::kMaxRadii);
+  float radii[OmniFeatureRays::kMaxRadii];  // start-up only; Q4 copies are kept
+  n_radii_ = OmniFeatureRadii(scan, radii, OmniFeatureRays::kMaxRadii);
   if (n_radii_ <= 1) {
     return Status(StatusCode::kInvalidArgument, "field features: bad feature ray set");
   }
-  for (int k = 0; k < n_radii_; ++k) radii_q4_[k] = RadiusQ4(radii_[k]);
+  for (int k = 0; k < n_radii_; ++k) radii_q4_[k] = RadiusQ4(radii[k]);
   static_assert(OmniFeatureRays::kMaxRadii <= 255);
+  blocked_ = 0;
   for (int i = 0; i < scan.features.rays; ++i) {
     const OmniRayQ q = MakeOmniRay(scan, i);
+    rays_[i] = q;
+    if (OmniFeatureRayBlocked(scan, i)) blocked_ |= uint64_t{1} << i;
     int k = 0;
     for (; k < n_radii_; ++k) {
       int u, v;
@@ -91,9 +95,9 @@ void FieldFeatureExtractor::AddLinePoint(float r_in, float r_out, float cs, floa
 // and nothing beyond it on this ray is trusted (it hides the floor).
 void FieldFeatureExtractor::ScanRay(const YuyvImage& img, const ColorLut& lut, int ray,
                                     FieldFeatures& out) {
-  const float a = RayAngle(ray, scan_.features.rays);
-  const float cs = std::cos(a), sn = std::sin(a);
-  const OmniRayQ q = MakeOmniRay(scan_, ray);
+  const OmniRayQ& q = rays_[ray];
+  const float cs = static_cast<float>(q.cs_q14) * (1.0f / 16384.0f);  // no trigonometry per frame
+  const float sn = static_cast<float>(q.sn_q14) * (1.0f / 16384.0f);
   int last_green = -10, white_start = -1, last_white = -10, green_before_white = -10;
   int dark_start = -1, dark_count = 0, green_before_dark = -10;
   const int n = inside_[ray];
@@ -106,8 +110,7 @@ void FieldFeatureExtractor::ScanRay(const YuyvImage& img, const ColorLut& lut, i
     const ColorClass c = lut.Classify(pair[(u & 1) * 2], pair[1], pair[3]);
     if (c == ColorClass::kField) {
       if (white_start >= 0 && k - last_white <= 2 && white_start - green_before_white <= 2) {
-        AddLinePoint(0.5f * (radii_[green_before_white] + radii_[white_start]),
-                     0.5f * (radii_[last_white] + radii_[k]), cs, sn, ray, out);
+        AddLinePoint(Mid(green_before_white, white_start), Mid(last_white, k), cs, sn, ray, out);
       }
       white_start = -1;
       dark_start = -1;
@@ -131,7 +134,7 @@ void FieldFeatureExtractor::ScanRay(const YuyvImage& img, const ColorLut& lut, i
       ++dark_count;
       if (dark_count >= config_.min_obstacle_samples && dark_start - green_before_dark <= 2 &&
           green_before_dark >= 0) {
-        const float r = 0.5f * (radii_[green_before_dark] + radii_[dark_start]);
+        const float r = Mid(green_before_dark, dark_start);
         float x, y;
         if (Ground(scan_.center_u + r * cs, scan_.center_v + r * sn, x, y) &&
             std::hypot(x, y) <= config_.max_obstacle_range_m) {
@@ -180,7 +183,7 @@ void FieldFeatureExtractor::MergeObstacles(const YuyvImage& img, const ColorLut&
   const float step = RayAngle(1, n);
   int start = -1;  // a ray with no hit, so no group wraps around it
   for (int i = 0; i < n && start < 0; ++i) {
-    if (hits_[i].foot_r < 0 && !OmniFeatureRayBlocked(scan_, i)) start = i;
+    if (hits_[i].foot_r < 0 && !Blocked(i)) start = i;
   }
   if (start < 0) return;  // surrounded: no free ray to tell obstacles apart
   for (int off = 1; off <= n; ++off) {
@@ -192,7 +195,7 @@ void FieldFeatureExtractor::MergeObstacles(const YuyvImage& img, const ColorLut&
     int j = off + 1;
     for (; j <= n; ++j) {
       const int i = (start + j) % n;
-      if (OmniFeatureRayBlocked(scan_, i) && hits_[i].foot_r < 0) continue;
+      if (Blocked(i) && hits_[i].foot_r < 0) continue;
       if (hits_[i].foot_r < 0 ||
           std::fabs(hits_[i].foot_m - hits_[last].foot_m) > config_.obstacle_merge_m) {
         break;
@@ -245,7 +248,7 @@ Status FieldFeatureExtractor::Extract(const YuyvImage& omni, const ColorLut& lut
   }
   for (int i = 0; i < scan_.features.rays; ++i) {
     hits_[i] = RayHit{};
-    if (!OmniFeatureRayBlocked(scan_, i)) ScanRay(omni, lut, i, out);
+    if (!Blocked(i)) ScanRay(omni, lut, i, out);
   }
   MergeObstacles(omni, lut, out);
   return Status::Ok();

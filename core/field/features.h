@@ -45,7 +45,7 @@ struct FieldFeatureConfig {
 };
 
 struct FieldFeatures {
-  static constexpr int kMaxLinePoints = 128;  // ~40 seen per frame with 64 rays
+  static constexpr int kMaxLinePoints = 96;  // 35-51 seen per frame with 64 rays
   static constexpr int kMaxObstacles = 16;
   LinePoint lines[kMaxLinePoints];
   int line_count = 0;
@@ -89,9 +89,16 @@ class FieldFeatureExtractor {
   const OmniCalibration* cal_ = nullptr;
   FieldFeatureConfig config_;
   bool ready_ = false;
-  float radii_[OmniFeatureRays::kMaxRadii] = {};
   int32_t radii_q4_[OmniFeatureRays::kMaxRadii] = {};
   uint8_t inside_[OmniFeatureRays::kMaxRays] = {};  // leading samples of each ray in the frame
+  OmniRayQ rays_[OmniFeatureRays::kMaxRays] = {};
+  uint64_t blocked_ = 0;  // rays in a strut wedge
+  static_assert(OmniFeatureRays::kMaxRays <= 64);
+  bool Blocked(int ray) const { return (blocked_ >> ray) & 1u; }
+  // Radius (px) halfway between samples a and b.
+  float Mid(int a, int b) const {
+    return static_cast<float>(radii_q4_[a] + radii_q4_[b]) * (1.0f / 32.0f);
+  }
   int n_radii_ = 0;
   RayHit hits_[OmniFeatureRays::kMaxRays] = {};
 };

@@ -294,10 +294,14 @@ Status ScanlineTableBase::BuildOmni(const OmniScanConfig& c, int width, int heig
                   "BuildOmni: feature rays not a power of two <= 64 or bad radii/steps");
   }
   // Feature-ray samples of row v (the same rounding as core/field's reader).
+  OmniRayQ feature_rays[OmniFeatureRays::kMaxRays];
+  int n_feature_rays = 0;
+  for (int i = 0; i < c.features.rays; ++i) {
+    if (!OmniFeatureRayBlocked(c, i)) feature_rays[n_feature_rays++] = MakeOmniRay(c, i);
+  }
   const auto add_feature_samples = [&](int v, int& n, bool& overflow) {
-    for (int i = 0; i < c.features.rays && !overflow; ++i) {
-      if (OmniFeatureRayBlocked(c, i)) continue;
-      const OmniRayQ q = MakeOmniRay(c, i);
+    for (int i = 0; i < n_feature_rays && !overflow; ++i) {
+      const OmniRayQ& q = feature_rays[i];
       for (int k = 0; k < n_radii; ++k) {
         int su, sv;
         OmniRayPixel(q, RadiusQ4(g_feature_radii[k]), su, sv);
