@@ -30,7 +30,7 @@ struct LocaliserConfig {
   float good_inlier_ratio = 0.5f;     // tracking: a fit this good keeps the pose
   float global_inlier_ratio = 0.75f;  // a global search result must fit this well
   int lost_after_bad_frames = 20;     // bad fits in a row: relocalise globally
-  int evals_per_frame = 400;          // global search budget (pose evaluations per frame)
+  int evals_per_frame = 150;          // global search budget (pose evaluations per frame)
   float grid_m = 0.5f;                // global search position grid
   float coast_pos_mps = 0.5f;         // sigma growth while coasting without odometry
   float coast_heading_radps = 0.2f;
