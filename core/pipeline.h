@@ -119,6 +119,7 @@ class Pipeline {
   const FieldFeatures& features() const { return features_; }
   const PoseEstimate& localisation() const { return localiser_.pose(); }
   const FieldModel& field_model() const { return field_model_; }
+  bool features_enabled() const { return features_ready_; }
 
  private:
   BallDetection Detect(BallFinder& finder, const YuyvImage& img, const ImagePrediction& pred);

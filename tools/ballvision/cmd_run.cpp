@@ -28,7 +28,7 @@ namespace bv::cli {
 namespace {
 
 struct Args {
-  std::string seq, calib, out, lut, annotate, plots;
+  std::string seq, calib, out, lut, annotate, plots, features;
   int predict_ms = -1;
   double at_ms = -1;
   double bounce_factor = -1;
@@ -59,6 +59,8 @@ bool ParseArgs(int argc, char** argv, Args& a, std::string& error) {
       if (!value(a.lut)) return false;
     } else if (k == "--annotate") {
       if (!value(a.annotate)) return false;
+    } else if (k == "--features") {
+      if (!value(a.features)) return false;
     } else if (k == "--plots") {
       if (!value(a.plots)) return false;
     } else if (k == "--stills") {
@@ -130,8 +132,18 @@ bool Prepare(const Args& a, const char* cmd, Setup& s) {
 
 bool WriteStates(const std::string& path, const std::vector<FrameRecord>& recs, bool predict,
                  std::string& error) {
+  // Pose columns when the pipeline localised itself (DESIGN.md §4).
+  const bool pose = !recs.empty() && recs.front().field_features;
   std::string text = StatesCsvHeader(predict);
-  for (const auto& r : recs) text += StatesCsvRow(r.index, r.state, predict);
+  if (pose) text.insert(text.size() - 1, kStatesPoseHeader);
+  for (const auto& r : recs) {
+    std::string row = StatesCsvRow(r.index, r.state, predict);
+    if (pose) {
+      row.insert(row.size() - 1, StatesCsvPose(r.pose.usable(), r.pose.x_m, r.pose.y_m,
+                                               r.pose.heading_rad));
+    }
+    text += row;
+  }
   if (path.empty() || path == "-") {
     std::fputs(text.c_str(), stdout);
     return true;
@@ -159,10 +171,13 @@ int CmdRun(int argc, char** argv) {
   if (!ParseArgs(argc, argv, a, err) || a.help || a.seq.empty() || a.calib.empty()) {
     std::fprintf(a.help ? stdout : stderr,
                  "%s%susage: ballvision run SEQ --calib FILE [--out states.csv] [--predict-ms N]\n"
-                 "       [--lut FILE] [--annotate DIR] [--stills] [--bounce-factor B (0.7)]\n"
+                 "       [--lut FILE] [--annotate DIR] [--features DIR] [--stills]\n"
+                 "       [--bounce-factor B (0.7)]\n"
                  "  --lut      colour LUT blob; default $BV_LUT, then <calib dir>/luts/*.lut,\n"
                  "             then a built-in colour rule\n"
-                 "  --stills   frames are unrelated stills: no tracking across frames\n",
+                 "  --stills   frames are unrelated stills: no tracking across frames\n"
+                 "  --features DIR  field features per frame: DIR/lines.csv (index,x,y) and\n"
+                 "             DIR/obstacles.csv (index,x,y,radius), robot frame, metres\n",
                  err.c_str(), err.empty() ? "" : "\n");
     return a.help ? 0 : 2;
   }
@@ -172,6 +187,7 @@ int CmdRun(int argc, char** argv) {
   rs.progress = s.seq.entries.size() >= 30;
   rs.reset_each_frame = a.stills;
   rs.annotate_dir = a.annotate;
+  rs.features_dir = a.features;
   std::vector<FrameRecord> recs;
   if (!RunSequence(s.seq, *s.pipeline, rs, recs, err) ||
       !WriteStates(a.out, recs, a.predict_ms >= 0, err)) {

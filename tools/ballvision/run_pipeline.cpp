@@ -5,10 +5,56 @@
 #include <filesystem>
 
 #include <algorithm>
+#include <memory>
 
 #include "tools/ballvision/annotate_frontend.h"
 
 namespace bv::cli {
+namespace {
+
+// DIR/lines.csv (index,x,y) and DIR/obstacles.csv (index,x,y,radius), robot frame, metres.
+class FeatureWriter {
+ public:
+  bool Open(const std::string& dir, std::string& error) {
+    std::error_code ec;
+    std::filesystem::create_directories(dir, ec);
+    lines_ = std::fopen((dir + "/lines.csv").c_str(), "w");
+    obstacles_ = std::fopen((dir + "/obstacles.csv").c_str(), "w");
+    if (!lines_ || !obstacles_) {
+      error = dir + ": cannot write lines.csv / obstacles.csv";
+      return false;
+    }
+    std::fputs("index,x,y\n", lines_);
+    std::fputs("index,x,y,radius\n", obstacles_);
+    return true;
+  }
+  bool Add(int64_t index, const FieldFeatures& f, std::string& error) {
+    for (int i = 0; i < f.line_count; ++i) {
+      std::fprintf(lines_, "%lld,%.4f,%.4f\n", static_cast<long long>(index), f.lines[i].x_m,
+                   f.lines[i].y_m);
+    }
+    for (int i = 0; i < f.obstacle_count; ++i) {
+      const Obstacle& o = f.obstacles[i];
+      std::fprintf(obstacles_, "%lld,%.4f,%.4f,%.4f\n", static_cast<long long>(index), o.x_m,
+                   o.y_m, o.radius_m);
+    }
+    if (std::ferror(lines_) || std::ferror(obstacles_)) {
+      error = "writing lines.csv / obstacles.csv failed";
+      return false;
+    }
+    return true;
+  }
+  ~FeatureWriter() {
+    if (lines_) std::fclose(lines_);
+    if (obstacles_) std::fclose(obstacles_);
+  }
+
+ private:
+  std::FILE* lines_ = nullptr;
+  std::FILE* obstacles_ = nullptr;
+};
+
+}  // namespace
 
 bool AnnotateFrame(const std::string& dir, int64_t index, const FrameInput& in,
                    const Pipeline& pipeline, const BallState& s, std::string& error) {
@@ -42,6 +88,11 @@ bool RunSequence(const host::Sequence& seq, Pipeline& pipeline, const RunSetting
   if (!settings.annotate_dir.empty()) {
     std::error_code ec;
     std::filesystem::create_directories(settings.annotate_dir, ec);
+  }
+  std::unique_ptr<FeatureWriter> features;
+  if (!settings.features_dir.empty()) {
+    features = std::make_unique<FeatureWriter>();
+    if (!features->Open(settings.features_dir, error)) return false;
   }
   std::vector<uint8_t> omni, persp;
   const size_t n = seq.entries.size();
@@ -78,6 +129,9 @@ bool RunSequence(const host::Sequence& seq, Pipeline& pipeline, const RunSetting
     rec.state.proc_us = static_cast<uint32_t>(
         std::chrono::duration_cast<std::chrono::microseconds>(t1 - t0).count());
     rec.meas = pipeline.last_measurement();
+    rec.pose = pipeline.localisation();
+    rec.field_features = pipeline.field_model().ready() && pipeline.features_enabled();
+    if (features && !features->Add(e.index, pipeline.features(), error)) return false;
     uint64_t tc[8];
     float xs[8], ys[8];
     const int nc = pipeline.filter().ContactsAfter(e.t_us, tc, xs, ys, 8);

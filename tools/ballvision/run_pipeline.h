@@ -16,12 +16,15 @@ struct FrameRecord {
   BallState state;
   MeasurementInfo meas;
   std::vector<uint64_t> contacts_us;  // predicted floor contacts after t (up to 8)
+  PoseEstimate pose;                  // the coprocessor's own field pose after this frame
+  bool field_features = false;        // the pipeline ran the field features
 };
 
 struct RunSettings {
   bool progress = false;          // progress bar on stderr
   bool reset_each_frame = false;  // unrelated stills (static_grid): no tracking across frames
   std::string annotate_dir;       // PNGs with detections and predictions when not empty
+  std::string features_dir;       // lines.csv and obstacles.csv (DESIGN.md §4) when not empty
   // Called after each frame with the pipeline (e.g. to sample the filter's prediction).
   std::function<void(const Pipeline&, const FrameRecord&)> on_frame;
 };

@@ -51,4 +51,15 @@ std::string StatesCsvRow(int64_t index, const BallState& s, bool predict, bool w
   return r + "\n";
 }
 
+std::string StatesCsvPose(bool known, float x_m, float y_m, float heading_rad) {
+  if (!known) return ",,,";
+  std::string r = ",";
+  Append(r, "%.4f", x_m);
+  r += ",";
+  Append(r, "%.4f", y_m);
+  r += ",";
+  Append(r, "%.3f", heading_rad * 57.29577951308232);
+  return r;
+}
+
 }  // namespace bv::cli

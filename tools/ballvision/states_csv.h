@@ -16,4 +16,9 @@ std::string StatesCsvHeader(bool predict);
 /// false leaves proc_us empty (it is a wall-clock figure that differs between platforms).
 std::string StatesCsvRow(int64_t index, const BallState& s, bool predict, bool with_proc = true);
 
+/// The robot's field pose columns (DESIGN.md §4) appended to a row or header by `run` and
+/// `listen`: ",pose_x,pose_y,pose_heading_deg"; values empty while the pose is unknown.
+inline constexpr const char* kStatesPoseHeader = ",pose_x,pose_y,pose_heading_deg";
+std::string StatesCsvPose(bool known, float x_m, float y_m, float heading_rad);
+
 }  // namespace bv::cli
