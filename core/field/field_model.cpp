@@ -160,4 +160,33 @@ bool FieldModel::Inside(float x_m, float y_m, float margin_m) const {
          std::fabs(y_m) <= 0.5f * config_.width_m + margin_m;
 }
 
+int FieldModel::LinePoints(float step_m, float (*xy)[2], int capacity) const {
+  if (!ready_ || !(step_m > 0.001f)) return 0;
+  int n = 0;
+  const auto put = [&](float x, float y) {
+    for (int q = 0; q < 4 && n < capacity; ++q) {
+      xy[n][0] = (q & 1) ? -x : x;
+      xy[n][1] = (q & 2) ? -y : y;
+      ++n;
+    }
+  };
+  for (int k = 0; k < count_; ++k) {
+    const Primitive& p = prims_[k];
+    if (p.kind == 0) {
+      const float len = std::hypot(p.c - p.a, p.d - p.b);
+      for (float t = 0.0f; t <= len; t += step_m) {
+        const float f = len > 0.0f ? t / len : 0.0f;
+        put(p.a + f * (p.c - p.a), p.b + f * (p.d - p.b));
+      }
+    } else if (p.kind == 1) {
+      const float span = 0.5f * kPi, da = step_m / p.c;
+      for (float a = 0.0f; a <= span; a += da)
+        put(p.a + p.c * std::cos(p.d + a), p.b + p.c * std::sin(p.d + a));
+    } else {
+      put(p.a, p.b);
+    }
+  }
+  return n;
+}
+
 }  // namespace bv

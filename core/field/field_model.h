@@ -51,6 +51,9 @@ class FieldModel {
   /// True if (x, y) lies within the field lines plus `margin_m`.
   bool Inside(float x_m, float y_m, float margin_m) const;
   int primitive_count() const { return count_; }
+  /// Points every `step_m` along every line of the whole field (all four quadrants; a shared
+  /// axis line appears twice), for drawing the model; returns how many were written.
+  int LinePoints(float step_m, float (*xy)[2], int capacity) const;
 
  private:
   struct Primitive {

@@ -30,7 +30,7 @@ cv::Vec3b ClassColor(ColorClass c) {  // BGR
 bool AnnotateFrontEnd(const YuyvImage& image, const ColorLut& lut, const ScanlineTableBase& scan,
                       const BallFinder& finder, const Prediction* prediction,
                       const BallDetection& detection, const std::string& png_path,
-                      std::string* error, int scale) {
+                      std::string* error, int scale, const FieldOverlay* field) {
   if (!image.valid() || scale < 1) {
     if (error) *error = "AnnotateFrontEnd: invalid image or scale";
     return false;
@@ -79,6 +79,20 @@ bool AnnotateFrontEnd(const YuyvImage& image, const ColorLut& lut, const Scanlin
                static_cast<int>(prediction->sigma_px * scale), cv::Scalar(255, 0, 0), 1);
     cv::drawMarker(out, pt(prediction->u_px, prediction->v_px), cv::Scalar(255, 0, 0),
                    cv::MARKER_TILTED_CROSS, 6 * scale, 1);
+  }
+  if (field != nullptr) {
+    for (const auto& p : field->model) cv::circle(out, pt(p.u, p.v), 0, cv::Scalar(0, 200, 0), 1);
+    for (const auto& p : field->line_points) {
+      cv::circle(out, pt(p.u, p.v), std::max(1, scale), cv::Scalar(0, 255, 255), cv::FILLED);
+    }
+    for (const auto& o : field->obstacles) {
+      cv::circle(out, pt(o.first.u, o.first.v), std::max(2, static_cast<int>(o.second * scale)),
+                 cv::Scalar(0, 0, 255), 1);
+      cv::drawMarker(out, pt(o.first.u, o.first.v), cv::Scalar(0, 0, 255), cv::MARKER_CROSS,
+                     6 * scale, 1);
+    }
+    cv::putText(out, field->caption, cv::Point(6, out.rows - 8), cv::FONT_HERSHEY_SIMPLEX, 0.45,
+                cv::Scalar(0, 255, 0), 1);
   }
   if (detection.found) {
     cv::circle(out, pt(detection.u_px, detection.v_px),

@@ -139,8 +139,8 @@ bool WriteStates(const std::string& path, const std::vector<FrameRecord>& recs, 
   for (const auto& r : recs) {
     std::string row = StatesCsvRow(r.index, r.state, predict);
     if (pose) {
-      row.insert(row.size() - 1, StatesCsvPose(r.pose.usable(), r.pose.x_m, r.pose.y_m,
-                                               r.pose.heading_rad));
+      row.insert(row.size() - 1,
+                 StatesCsvPose(r.pose.usable(), r.pose.x_m, r.pose.y_m, r.pose.heading_rad));
     }
     text += row;
   }

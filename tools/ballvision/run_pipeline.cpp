@@ -1,6 +1,7 @@
 #include "tools/ballvision/run_pipeline.h"
 
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 
@@ -35,8 +36,8 @@ class FeatureWriter {
     }
     for (int i = 0; i < f.obstacle_count; ++i) {
       const Obstacle& o = f.obstacles[i];
-      std::fprintf(obstacles_, "%lld,%.4f,%.4f,%.4f\n", static_cast<long long>(index), o.x_m,
-                   o.y_m, o.radius_m);
+      std::fprintf(obstacles_, "%lld,%.4f,%.4f,%.4f\n", static_cast<long long>(index), o.x_m, o.y_m,
+                   o.radius_m);
     }
     if (std::ferror(lines_) || std::ferror(obstacles_)) {
       error = "writing lines.csv / obstacles.csv failed";
@@ -53,6 +54,51 @@ class FeatureWriter {
   std::FILE* lines_ = nullptr;
   std::FILE* obstacles_ = nullptr;
 };
+
+}  // namespace
+
+namespace {
+
+// Line points, obstacles and the field model (through the estimated pose) in omni pixels.
+FieldOverlay MakeFieldOverlay(const Pipeline& pipeline, const OmniCalibration& cal) {
+  FieldOverlay o;
+  const FieldFeatures& f = pipeline.features();
+  float u, v;
+  for (int i = 0; i < f.line_count; ++i) {
+    if (OmniGroundToPixel(cal, f.lines[i].x_m, f.lines[i].y_m, u, v).ok()) {
+      o.line_points.push_back({u, v});
+    }
+  }
+  for (int i = 0; i < f.obstacle_count; ++i) {
+    const Obstacle& ob = f.obstacles[i];
+    float u2, v2;
+    const float d = std::hypot(ob.x_m, ob.y_m);
+    if (d > 0.01f && OmniGroundToPixel(cal, ob.x_m, ob.y_m, u, v).ok() &&
+        OmniGroundToPixel(cal, ob.x_m - ob.y_m / d * ob.radius_m, ob.y_m + ob.x_m / d * ob.radius_m,
+                          u2, v2)
+            .ok()) {
+      o.obstacles.push_back({{u, v}, std::hypot(u2 - u, v2 - v)});
+    }
+  }
+  const PoseEstimate& p = pipeline.localisation();
+  char text[128];
+  std::snprintf(text, sizeof text,
+                "pose %s (%.2f, %.2f, %.1f deg) q %.2f%s, %d lines, %d obstacles",
+                p.usable() ? "" : "unknown", p.x_m, p.y_m, p.heading_rad * 57.2958f, p.quality,
+                p.ambiguous ? " ambiguous" : "", f.line_count, f.obstacle_count);
+  o.caption = text;
+  if (!p.usable()) return o;
+  constexpr int kModelPoints = 4096;
+  const std::unique_ptr<float[][2]> pts(new float[kModelPoints][2]);
+  const int n = pipeline.field_model().LinePoints(0.05f, pts.get(), kModelPoints);
+  const float s = std::sin(p.heading_rad), c = std::cos(p.heading_rad);
+  for (int i = 0; i < n; ++i) {
+    const float dx = pts[i][0] - p.x_m, dy = pts[i][1] - p.y_m;
+    const float rx = dx * s - dy * c, ry = dx * c + dy * s;  // field -> robot frame
+    if (OmniGroundToPixel(cal, rx, ry, u, v).ok()) o.model.push_back({u, v});
+  }
+  return o;
+}
 
 }  // namespace
 
@@ -73,8 +119,12 @@ bool AnnotateFrame(const std::string& dir, int64_t index, const FrameInput& in,
     p.sigma_px = std::max(2.f * preds[c]->radius_px, 6.f);
     char name[64];
     std::snprintf(name, sizeof name, "/%s_%06lld.png", names[c], static_cast<long long>(index));
+    FieldOverlay field;
+    const bool with_field = c == 0 && pipeline.features_enabled() && pipeline.calibration();
+    if (with_field) field = MakeFieldOverlay(pipeline, pipeline.calibration()->omni);
     if (!AnnotateFrontEnd(*imgs[c], *pipeline.lut(), *scans[c], *finders[c],
-                          preds[c]->valid ? &p : nullptr, *dets[c], dir + name, &error)) {
+                          preds[c]->valid ? &p : nullptr, *dets[c], dir + name, &error, 1,
+                          with_field ? &field : nullptr)) {
       return false;
     }
   }

@@ -22,8 +22,8 @@ std::string StatesCsvHeader(bool predict) {
 }
 
 std::string StatesCsvRow(int64_t index, const BallState& s, bool predict, bool with_proc) {
-  std::string r = std::to_string(index) + "," + std::to_string(s.t_us) + "," +
-                  (s.found ? "1" : "0");
+  std::string r =
+      std::to_string(index) + "," + std::to_string(s.t_us) + "," + (s.found ? "1" : "0");
   for (float v : {s.x_m, s.y_m, s.z_m, s.vx_mps, s.vy_mps, s.vz_mps}) {
     r += ",";
     if (s.found) Append(r, "%.5f", v);
