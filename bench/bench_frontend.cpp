@@ -17,8 +17,10 @@
 
 #include "core/color_lut/color_lut.h"
 #include "core/detect/detect.h"
+#include "core/pipeline.h"
 #include "core/scanline/scanline.h"
 #include "hal/host/sequence.h"
+#include "tools/ballvision/calib_io.h"
 
 namespace {
 
@@ -67,11 +69,18 @@ Data& D() {
         if (host::LoadYuyv(s.entries[i].persp_path, buf, w, h, err)) x.persp.push_back(buf);
       }
     }
-    x.ok =
-        x.omni_scan->BuildOmni(ReferenceOmniScanConfig(314.2f, 244.1f), kFrameWidth, kFrameHeight)
-            .ok() &&
-        x.persp_scan->BuildPersp(ReferencePerspScanConfig(), kFrameWidth, kFrameHeight).ok() &&
-        !x.omni.empty() && !x.persp.empty();
+    // The omni pattern the pipeline uses on the reference rig: ball profile + field-feature rays.
+    RigCalibration cal;
+    std::string cal_err;
+    if (!cli::LoadCalibrationFile(BV_TEST_DATA_DIR "/reference_rig_calib.json", cal, cal_err)) {
+      std::fprintf(stderr, "bench_frontend: %s\n", cal_err.c_str());
+      return x;
+    }
+    x.ok = x.omni_scan
+               ->BuildOmni(PipelineOmniScan(cal.omni, PipelineConfig{}), kFrameWidth, kFrameHeight)
+               .ok() &&
+           x.persp_scan->BuildPersp(ReferencePerspScanConfig(), kFrameWidth, kFrameHeight).ok() &&
+           !x.omni.empty() && !x.persp.empty();
     return x;
   }();
   return d;

@@ -69,25 +69,44 @@ Result<Ray> OmniRay(const OmniCalibration& cal, float u_px, float v_px) {
   return out;
 }
 
-// Feature rays out to where the distance map ends in its shortest direction (farther line
-// points cannot be put on the floor), 3 px steps near the robot (a line is >= 8 px wide there)
-// down to 1 px at the far end (1-3 px wide at 3-6 m). 64 rays keep the pair under 5 % of its
-// pixels (measured: +3.8 k table samples on the reference rig).
+// Feature rays out to the line range (max_line_range_m; a 12.5 cm line is under a pixel wide
+// beyond ~5 m on the reference mirror) or where the distance map ends, in the direction where
+// that comes first; 3 px steps near the robot (a line is >= 8 px wide there) down to 1 px at the
+// far end. 64 rays keep the pair under 5 % of its pixels (bench_frontend prints it).
+float RadiusAtGround(const OmniCalibration& cal, int direction, float ground_m) {
+  const float* sv = cal.support_px[direction];
+  for (int k = 1; k < OmniCalibration::kEdges; ++k) {
+    if (cal.edge_ground_m[k] >= ground_m) {
+      const float t =
+          (ground_m - cal.edge_ground_m[k - 1]) / (cal.edge_ground_m[k] - cal.edge_ground_m[k - 1]);
+      return sv[k - 1] + std::clamp(t, 0.0f, 1.0f) * (sv[k] - sv[k - 1]);
+    }
+  }
+  return sv[OmniCalibration::kEdges - 1];
+}
+
 OmniFeatureRays FeatureRays(const OmniCalibration& cal, const OmniScanConfig& scan,
                             const PipelineConfig& config) {
   float end = scan.outer_radius_px;
   for (int d = 0; d < OmniCalibration::kDirections; ++d) {
+    end = std::min(end, RadiusAtGround(cal, d, config.features.max_line_range_m));
     end = std::min(end, cal.support_px[d][OmniCalibration::kEdges - 1] - 1.0f);
   }
   OmniFeatureRays f;
   f.rays = config.feature_rays;
   f.end_radius_px = std::max(end, scan.inner_radius_px + 2.0f);
-  f.step_inner_px = 3.0f;
+  f.step_inner_px = 4.0f;
   f.step_outer_px = 1.0f;
   return f;
 }
 
 }  // namespace
+
+OmniScanConfig PipelineOmniScan(const OmniCalibration& cal, const PipelineConfig& config) {
+  OmniScanConfig scan = ReferenceOmniScanConfig(cal.center_u, cal.center_v);
+  if (config.field_features) scan.features = FeatureRays(cal, scan, config);
+  return scan;
+}
 
 Status Pipeline::SetRobotPose(const RobotPose& pose) {
   if (!std::isfinite(pose.x_m) || !std::isfinite(pose.y_m) || !std::isfinite(pose.heading_rad)) {
@@ -202,10 +221,8 @@ Status Pipeline::Init(const RigCalibration& calibration, const ColorLut& lut,
   features_ready_ = false;
   BV_TRY(field_model_.Init(config_.field));
   if (calibration.omni.valid) {
-    OmniScanConfig scan =
-        ReferenceOmniScanConfig(calibration.omni.center_u, calibration.omni.center_v);
+    const OmniScanConfig scan = PipelineOmniScan(calibration.omni, config_);
     omni_outer_radius_px_ = scan.outer_radius_px;
-    if (config_.field_features) scan.features = FeatureRays(calibration.omni, scan, config_);
     BV_TRY(omni_scan_.BuildOmni(scan, kFrameWidth, kFrameHeight));
     if (config_.field_features) {
       FieldFeatureConfig fc = config_.features;

@@ -80,6 +80,10 @@ struct MeasurementInfo {
   Eigen::Vector3f omni_ground_m = Eigen::Vector3f::Zero();
 };
 
+/// The omni scan pattern the pipeline builds for a calibration: the reference ball profile plus
+/// the field-feature rays (when config.field_features), out to where the distance map ends.
+OmniScanConfig PipelineOmniScan(const OmniCalibration& cal, const PipelineConfig& config);
+
 class Pipeline {
  public:
   /// Errors: kFailedPrecondition when the calibration is not valid for any camera,
