@@ -314,13 +314,15 @@ TEST(PipelineCli, RunWritesTheDesignColumns) {
   const std::vector<std::string> want = {"index",       "t_us",    "found",   "x",       "y",
                                          "z",           "vx",      "vy",      "vz",      "mode",
                                          "omni_u",      "omni_v",  "persp_u", "persp_v", "ray_gap",
-                                         "t_bounce_us", "proc_us", "px",      "py",      "pz"};
+                                         "t_bounce_us", "proc_us", "px",      "py",      "pz",
+                                         "pose_x",      "pose_y",  "pose_heading_deg"};
   EXPECT_EQ(t.header, want);
   ASSERT_EQ(t.rows.size(), 8u);
   EXPECT_EQ(t.rows[0].at("index"), "10");
   EXPECT_EQ(t.rows[5].at("persp_u"), "");  // no persp frame in row 5
   for (const auto& row : t.rows) {
     EXPECT_EQ(row.at("found"), "1");
+    EXPECT_EQ(row.at("pose_x"), "");  // the demo's two lines fit many places: no pose
   }
   // Usage errors exit with 2.
   const char* bad[] = {"run", seq.c_str()};
