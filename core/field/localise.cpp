@@ -81,7 +81,7 @@ void Localiser::ApplyHalf() {
 
 float Localiser::Score(const FieldFeatures& f, float x, float y, float h, int max_points) const {
   if (f.line_count == 0) return 1.0f;
-  const int stride = std::max(1, f.line_count / std::max(1, max_points));
+  const int stride = std::max(1, (f.line_count + max_points - 1) / std::max(1, max_points));
   const float c = kSearchCPerGrid * config_.grid_m, c2 = c * c;
   const float s = std::sin(h), co = std::cos(h);
   float sum = 0.0f;
@@ -262,7 +262,7 @@ void Localiser::ContinueSearch(const FieldFeatures& f) {
   FitResult fits[kMaxCandidates];
   int best = -1;
   // Coarse to fine on a subsample (the cost of this frame), then the winner on every point.
-  const int stride = std::max(1, f.line_count / kScorePoints);
+  const int stride = std::max(1, (f.line_count + kScorePoints - 1) / kScorePoints);
   for (int k = 0; k < best_count_; ++k) {
     FitResult r = Refine(f, best_[k].x, best_[k].y, best_[k].h, 2, 1.0f, stride);
     r = Refine(f, r.x, r.y, r.h, 2, 0.5f, stride);
