@@ -259,15 +259,25 @@ bool ReadFileBytes(const std::string& path, std::vector<uint8_t>& bytes, std::st
   return true;
 }
 
-bool ReadJsonFile(const std::string& path, json& out, std::string& error) {
-  std::vector<uint8_t> bytes;
-  if (!ReadFileBytes(path, bytes, error)) return false;
-  out = json::parse(bytes.begin(), bytes.end(), nullptr, /*allow_exceptions=*/false);
-  if (out.is_discarded()) {
-    error = path + ": not valid JSON";
+namespace {
+
+// The parser's own message says where the text stops being JSON (line, column, token).
+bool ParseJsonBytes(const std::vector<uint8_t>& bytes, const std::string& path, json& out,
+                    std::string& error) {
+  try {
+    out = json::parse(bytes.begin(), bytes.end());
+    return true;
+  } catch (const json::exception& e) {
+    error = path + ": not valid JSON (" + e.what() + ")";
     return false;
   }
-  return true;
+}
+
+}  // namespace
+
+bool ReadJsonFile(const std::string& path, json& out, std::string& error) {
+  std::vector<uint8_t> bytes;
+  return ReadFileBytes(path, bytes, error) && ParseJsonBytes(bytes, path, out, error);
 }
 
 bool WriteFileBytes(const std::string& path, const std::vector<uint8_t>& bytes,
@@ -287,9 +297,9 @@ bool LoadCalibrationFile(const std::string& path, RigCalibration& out, std::stri
     }
     return true;
   }
-  json j = json::parse(bytes.begin(), bytes.end(), nullptr, /*allow_exceptions=*/false);
-  if (j.is_discarded()) {
-    error = path + ": neither a calibration blob nor valid JSON";
+  json j;
+  if (!ParseJsonBytes(bytes, path, j, error)) {
+    error += "; not a calibration blob either (no BVB1 magic)";
     return false;
   }
   std::vector<std::string> unknown;

@@ -33,6 +33,8 @@
 #include "core/calibration/calibration.h"
 #include "hal/host/sequence.h"
 #include "tools/ballvision/calib_io.h"
+#include "tools/ballvision/cli_args.h"
+#include "tools/ballvision/strict_json.h"
 
 namespace bv::cli {
 namespace {
@@ -161,43 +163,75 @@ struct Carpet {
   std::map<long, double> azimuth_rad;  // frame index -> carpet azimuth (CCW from +x)
 };
 
+bool LoadCarpetFrames(StrictObject& r, const std::string& path, Carpet& c) {
+  const json* frames = r.Child("frames");
+  if (!frames) return false;
+  if (!frames->is_array() || frames->empty()) {
+    return r.Fail("frames", *frames, "a non-empty array of per-frame objects");
+  }
+  for (size_t i = 0; i < frames->size(); ++i) {
+    StrictObject f((*frames)[i], path, "frames[" + std::to_string(i) + "]");
+    int64_t index = 0;
+    double az = 0, bearing = 0;
+    if (!f.IsObject() || !f.Int("index", index, 0, INT32_MAX)) return r.Adopt(f);
+    // Either direction convention; both present must agree (bearing: clockwise from +y).
+    const bool has_az = f.Has("carpet_azimuth_robot_deg"), has_b = f.Has("carpet_bearing_deg");
+    if (!f.Number("carpet_azimuth_robot_deg", az, -720, 720, has_az || !has_b) ||
+        !f.Number("carpet_bearing_deg", bearing, -720, 720, false)) {
+      return r.Adopt(f);
+    }
+    if (!has_az) az = 90.0 - bearing;
+    if (has_az && has_b && std::fabs(WrapPi((az - (90.0 - bearing)) * kPi / 180)) > 1e-3) {
+      return r.Fail("frames[" + std::to_string(i) + "].carpet_bearing_deg", bearing,
+                    "90 - carpet_azimuth_robot_deg (the two directions disagree)");
+    }
+    f.Allow({"t_us", "robot_heading_field_deg"});
+    if (!c.azimuth_rad.emplace(index, Wrap2Pi(az * kPi / 180)).second) {
+      return r.Fail("frames[" + std::to_string(i) + "].index", index, "a unique frame index");
+    }
+  }
+  return true;
+}
+
+// carpet.json through the strict reader: types, units (metres, degrees), ranges.
 bool LoadCarpet(const std::string& path, Carpet& c, std::string& error) {
   json j;
   if (!ReadJsonFile(path, j, error)) return false;
-  if (j.is_discarded() || !j.contains("edges_m") || !j.contains("colors") ||
-      !j.contains("frames")) {
-    error = path + ": needs edges_m, colors and frames";
-    return false;
-  }
-  for (const auto& e : j["edges_m"]) c.edges_m.push_back(e.get<double>());
-  for (const auto& e : j["colors"]) c.colors.push_back(LabelOf(e.get<std::string>()));
-  if (c.colors.size() + 1 != c.edges_m.size()) {
-    error = path + ": colors must have one entry less than edges_m";
-    return false;
-  }
-  for (size_t i = 1; i < c.edges_m.size(); ++i) {
-    if (!(c.edges_m[i] > c.edges_m[i - 1])) {
-      error = path + ": edges_m not increasing";
-      return false;
-    }
-  }
-  if (c.edges_m.size() < static_cast<size_t>(kE)) {
-    error = path + ": the carpet has fewer than 12 edges (12 support vectors per direction)";
-    return false;
-  }
-  c.width_m = j.value("width_m", 0.6);
-  c.thickness_m = j.value("thickness_m", 0.0);
-  for (const auto& fr : j["frames"]) {
-    double az = 0;
-    if (fr.contains("carpet_azimuth_robot_deg")) {
-      az = fr["carpet_azimuth_robot_deg"].get<double>();
-    } else if (fr.contains("carpet_bearing_deg")) {
-      az = 90.0 - fr["carpet_bearing_deg"].get<double>();  // bearing: clockwise from +y
+  StrictObject r(j, path, "");
+  std::vector<std::string> colors;
+  bool ok = r.IsObject() && r.NumberArray("edges_m", c.edges_m, 0, 100) &&
+            r.Number("width_m", c.width_m, 0.05, 10, false) &&
+            r.Number("thickness_m", c.thickness_m, 0, 0.2, false);
+  const json* cj = ok ? r.Child("colors") : nullptr;
+  ok = ok && cj;
+  for (size_t i = 0; ok && i < cj->size(); ++i) {
+    const json& e = (*cj)[i];
+    if (!e.is_string() || LabelOf(e.get<std::string>()) == kOther) {
+      ok = r.Fail("colors[" + std::to_string(i) + "]", e, "\"white\", \"blue\" or \"red\"");
     } else {
-      error = path + ": a frame lacks carpet_azimuth_robot_deg / carpet_bearing_deg";
-      return false;
+      c.colors.push_back(LabelOf(e.get<std::string>()));
     }
-    c.azimuth_rad[fr["index"].get<long>()] = Wrap2Pi(az * kPi / 180);
+  }
+  if (ok && (!cj->is_array() || c.colors.size() + 1 != c.edges_m.size())) {
+    ok = r.Fail("colors", *cj, "an array with one entry less than edges_m (" +
+                                   std::to_string(c.edges_m.size()) + " edges)");
+  }
+  for (size_t i = 1; ok && i < c.edges_m.size(); ++i) {
+    if (!(c.edges_m[i] > c.edges_m[i - 1])) {
+      ok = r.Fail("edges_m[" + std::to_string(i) + "]", c.edges_m[i], "increasing edges");
+    }
+  }
+  if (ok && c.edges_m.size() < static_cast<size_t>(kE)) {
+    ok = r.Fail("edges_m", j["edges_m"], "at least 12 edges (12 support vectors per direction)");
+  }
+  ok = ok && LoadCarpetFrames(r, path, c);
+  r.Allow({"field_direction_deg", "origin_field"});
+  if (!ok) {
+    error = r.error();
+    return false;
+  }
+  for (const std::string& k : r.UnknownKeys()) {
+    std::fprintf(stderr, "warning: %s: unknown key, ignored\n", k.c_str());
   }
   return true;
 }
@@ -385,7 +419,12 @@ int CalibrateOmni(int argc, char** argv) {
       if (a == "--carpet") {
         carpet_path = v;
       } else if (a == "--viewpoint-z") {
-        f_o = std::atof(v.c_str());
+        std::string e;
+        if (!ArgNumber(a, v, 0.05, 5, f_o, e)) {
+          std::fprintf(stderr, "calibrate omni: %s (the mirror viewpoint height in metres)\n",
+                       e.c_str());
+          return 2;
+        }
       } else if (a == "--out") {
         out = v;
       } else if (a == "--report") {

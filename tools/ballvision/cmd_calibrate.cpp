@@ -17,6 +17,7 @@
 
 #include "hal/host/sequence.h"
 #include "tools/ballvision/calib_io.h"
+#include "tools/ballvision/cli_args.h"
 #include "tools/ballvision/calib_omni.h"
 #include "tools/ballvision/calib_zhang.h"
 #include "tools/ballvision/commands.h"
@@ -243,6 +244,7 @@ int CalibratePersp(int argc, char** argv) {
     const std::string a = argv[i];
     auto next = [&]() -> const char* { return i + 1 < argc ? argv[++i] : nullptr; };
     const char* v = nullptr;
+    std::string e;
     if (a == "--skew") {
       opt.skew = true;
     } else if (a == "--help" || a == "-h") {
@@ -262,17 +264,26 @@ int CalibratePersp(int argc, char** argv) {
     } else if (a == "--out") {
       out = v;
     } else if (a == "--square") {
-      square = std::atof(v);
+      if (!ArgNumber(a, v, 1e-4, 10, square, e)) {
+        std::fprintf(stderr, "calibrate persp: %s (board square size in metres)\n", e.c_str());
+        return 2;
+      }
     } else if (a == "--board") {
-      if (std::sscanf(v, "%dx%d", &nx, &ny) != 2 || nx < 2 || ny < 2) {
-        std::fprintf(stderr, "calibrate persp: --board wants NXxNY inner corners, e.g. 9x6\n");
+      int64_t bx = 0, by = 0;
+      if (!ArgIntPair(a, v, 'x', 2, 100, bx, by, e)) {
+        std::fprintf(stderr, "calibrate persp: %s (NXxNY inner corners, e.g. 9x6)\n", e.c_str());
         return 2;
       }
+      nx = static_cast<int>(bx);
+      ny = static_cast<int>(by);
     } else if (a == "--size") {
-      if (std::sscanf(v, "%dx%d", &width, &height) != 2) {
-        PerspUsage();
+      int64_t w = 0, h = 0;
+      if (!ArgIntPair(a, v, 'x', 16, 4096, w, h, e)) {
+        std::fprintf(stderr, "calibrate persp: %s (image size WxH in pixels)\n", e.c_str());
         return 2;
       }
+      width = static_cast<int>(w);
+      height = static_cast<int>(h);
     } else {
       std::fprintf(stderr, "calibrate persp: unknown option %s\n", a.c_str());
       PerspUsage();
