@@ -52,10 +52,10 @@ Outcome Run(const std::vector<uint8_t>& data) {
     }
   }
   const DecoderStats& s = d.stats();
-  o.counters = {{"frames_ok", s.frames_ok},       {"crc", s.crc_errors},
-                {"cobs", s.cobs_errors},          {"oversize", s.oversize},
-                {"short", s.short_frames},        {"version", s.version_errors},
-                {"length", s.length_errors},      {"bytes_discarded", s.bytes_discarded},
+  o.counters = {{"frames_ok", s.frames_ok},  {"crc", s.crc_errors},
+                {"cobs", s.cobs_errors},     {"oversize", s.oversize},
+                {"short", s.short_frames},   {"version", s.version_errors},
+                {"length", s.length_errors}, {"bytes_discarded", s.bytes_discarded},
                 {"bad_payload", bad_payload}};
   return o;
 }

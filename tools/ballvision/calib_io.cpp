@@ -95,8 +95,8 @@ bool OmniScalarsFromJson(StrictObject& r, OmniCalibration& o) {
          r.Float("center_v", o.center_v, v ? 0 : -kBig, v ? 4096 : kBig) &&
          r.Float("viewpoint_z_m", o.viewpoint_z_m, v ? 0.01 : -kBig, v ? 10 : kBig) &&
          r.Float("image_angle_offset_rad", o.image_angle_offset_rad, -4 * M_PI, 4 * M_PI) &&
-         r.FloatArray("edge_ground_m", o.edge_ground_m, OmniCalibration::kEdges,
-                      v ? 0 : -kBig, v ? 100 : kBig);
+         r.FloatArray("edge_ground_m", o.edge_ground_m, OmniCalibration::kEdges, v ? 0 : -kBig,
+                      v ? 100 : kBig);
 }
 
 bool OmniTablesFromJson(StrictObject& r, const std::string& file, OmniCalibration& o) {

@@ -33,8 +33,8 @@
 #include "core/calibration/calibration.h"
 #include "hal/host/sequence.h"
 #include "tools/ballvision/calib_io.h"
+#include "tools/ballvision/carpet_json.h"
 #include "tools/ballvision/cli_args.h"
-#include "tools/ballvision/strict_json.h"
 
 namespace bv::cli {
 namespace {
@@ -49,7 +49,13 @@ constexpr double kSectorRad = 2 * kPi / kS;
 constexpr double kRayStepPx = 0.25;
 constexpr int kMinSamplesPerEdge = 2;  // fewer in a sector: occluded, interpolated
 
-enum Label : uint8_t { kOther = 0, kWhite = 1, kBlue = 2, kRed = 3 };
+// Same codes as Carpet::colors (carpet_json.h).
+enum Label : uint8_t {
+  kOther = kCarpetOther,
+  kWhite = kCarpetWhite,
+  kBlue = kCarpetBlue,
+  kRed = kCarpetRed
+};
 
 struct Rgb {
   float r = 0, g = 0, b = 0;
@@ -63,13 +69,6 @@ Label Classify(Rgb c) {
   if (c.b - std::max(c.r, c.g) > 35 && c.b > 70) return kBlue;
   if (c.r - std::max(c.g, c.b) > 40 && c.r > 80) return kRed;
   if (mn > 110 && mx - mn < 40) return kWhite;
-  return kOther;
-}
-
-Label LabelOf(const std::string& name) {
-  if (name == "white") return kWhite;
-  if (name == "blue") return kBlue;
-  if (name == "red") return kRed;
   return kOther;
 }
 
@@ -154,86 +153,6 @@ std::vector<Transition> ScanRay(const Image& im, double cu, double cv, double ph
     out.push_back({r0 + pos * kRayStepPx, A.l, B.l});
   }
   return out;
-}
-
-struct Carpet {
-  std::vector<double> edges_m;
-  std::vector<Label> colors;
-  double width_m = 0.6, thickness_m = 0;
-  std::map<long, double> azimuth_rad;  // frame index -> carpet azimuth (CCW from +x)
-};
-
-bool LoadCarpetFrames(StrictObject& r, const std::string& path, Carpet& c) {
-  const json* frames = r.Child("frames");
-  if (!frames) return false;
-  if (!frames->is_array() || frames->empty()) {
-    return r.Fail("frames", *frames, "a non-empty array of per-frame objects");
-  }
-  for (size_t i = 0; i < frames->size(); ++i) {
-    StrictObject f((*frames)[i], path, "frames[" + std::to_string(i) + "]");
-    int64_t index = 0;
-    double az = 0, bearing = 0;
-    if (!f.IsObject() || !f.Int("index", index, 0, INT32_MAX)) return r.Adopt(f);
-    // Either direction convention; both present must agree (bearing: clockwise from +y).
-    const bool has_az = f.Has("carpet_azimuth_robot_deg"), has_b = f.Has("carpet_bearing_deg");
-    if (!f.Number("carpet_azimuth_robot_deg", az, -720, 720, has_az || !has_b) ||
-        !f.Number("carpet_bearing_deg", bearing, -720, 720, false)) {
-      return r.Adopt(f);
-    }
-    if (!has_az) az = 90.0 - bearing;
-    if (has_az && has_b && std::fabs(WrapPi((az - (90.0 - bearing)) * kPi / 180)) > 1e-3) {
-      return r.Fail("frames[" + std::to_string(i) + "].carpet_bearing_deg", bearing,
-                    "90 - carpet_azimuth_robot_deg (the two directions disagree)");
-    }
-    f.Allow({"t_us", "robot_heading_field_deg"});
-    if (!c.azimuth_rad.emplace(index, Wrap2Pi(az * kPi / 180)).second) {
-      return r.Fail("frames[" + std::to_string(i) + "].index", index, "a unique frame index");
-    }
-  }
-  return true;
-}
-
-// carpet.json through the strict reader: types, units (metres, degrees), ranges.
-bool LoadCarpet(const std::string& path, Carpet& c, std::string& error) {
-  json j;
-  if (!ReadJsonFile(path, j, error)) return false;
-  StrictObject r(j, path, "");
-  std::vector<std::string> colors;
-  bool ok = r.IsObject() && r.NumberArray("edges_m", c.edges_m, 0, 100) &&
-            r.Number("width_m", c.width_m, 0.05, 10, false) &&
-            r.Number("thickness_m", c.thickness_m, 0, 0.2, false);
-  const json* cj = ok ? r.Child("colors") : nullptr;
-  ok = ok && cj;
-  for (size_t i = 0; ok && i < cj->size(); ++i) {
-    const json& e = (*cj)[i];
-    if (!e.is_string() || LabelOf(e.get<std::string>()) == kOther) {
-      ok = r.Fail("colors[" + std::to_string(i) + "]", e, "\"white\", \"blue\" or \"red\"");
-    } else {
-      c.colors.push_back(LabelOf(e.get<std::string>()));
-    }
-  }
-  if (ok && (!cj->is_array() || c.colors.size() + 1 != c.edges_m.size())) {
-    ok = r.Fail("colors", *cj, "an array with one entry less than edges_m (" +
-                                   std::to_string(c.edges_m.size()) + " edges)");
-  }
-  for (size_t i = 1; ok && i < c.edges_m.size(); ++i) {
-    if (!(c.edges_m[i] > c.edges_m[i - 1])) {
-      ok = r.Fail("edges_m[" + std::to_string(i) + "]", c.edges_m[i], "increasing edges");
-    }
-  }
-  if (ok && c.edges_m.size() < static_cast<size_t>(kE)) {
-    ok = r.Fail("edges_m", j["edges_m"], "at least 12 edges (12 support vectors per direction)");
-  }
-  ok = ok && LoadCarpetFrames(r, path, c);
-  r.Allow({"field_direction_deg", "origin_field"});
-  if (!ok) {
-    error = r.error();
-    return false;
-  }
-  for (const std::string& k : r.UnknownKeys()) {
-    std::fprintf(stderr, "warning: %s: unknown key, ignored\n", k.c_str());
-  }
-  return true;
 }
 
 // Numbers the transitions of one ray by the carpet's uniquely coloured patch: the transition

@@ -43,8 +43,8 @@ bool ArgNumber(const std::string& option, const std::string& text, double lo, do
   const bool whole = !text.empty() && !std::isspace(static_cast<unsigned char>(text[0])) &&
                      end != text.c_str() && *end == '\0';
   if (!whole || errno == ERANGE || !std::isfinite(v) || v < lo || v > hi) {
-    error = option + ": got " + Quote(text) + ", expected a number in [" + NumberText(lo) +
-            ", " + NumberText(hi) + "]";
+    error = option + ": got " + Quote(text) + ", expected a number in [" + NumberText(lo) + ", " +
+            NumberText(hi) + "]";
     return false;
   }
   out = v;

@@ -26,8 +26,8 @@ bool ArgIntAs(const std::string& option, const std::string& text, int64_t lo, in
   return true;
 }
 template <typename T>
-bool ArgNumberAs(const std::string& option, const std::string& text, double lo, double hi,
-                 T& out, std::string& error) {
+bool ArgNumberAs(const std::string& option, const std::string& text, double lo, double hi, T& out,
+                 std::string& error) {
   double v = 0;
   if (!ArgNumber(option, text, lo, hi, v, error)) return false;
   out = static_cast<T>(v);

@@ -126,8 +126,10 @@ int CmdCalib(int argc, char** argv) {
         if (hex) v = static_cast<int64_t>(std::strtoull(text.c_str() + 2, &end, 16));
         if (hex ? (text.size() < 3 || text.size() > 10 || *end != '\0')
                 : !ArgInt(key, text, 0, 0xFFFFFFFFll, v, e)) {
-          std::fprintf(stderr, "calib set: --lut-id: got '%s', expected a 32-bit id (decimal "
-                               "or 0x hex)\n", text.c_str());
+          std::fprintf(stderr,
+                       "calib set: --lut-id: got '%s', expected a 32-bit id (decimal "
+                       "or 0x hex)\n",
+                       text.c_str());
           return 2;
         }
         j["lut_id"] = static_cast<uint32_t>(v);

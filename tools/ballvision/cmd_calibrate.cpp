@@ -17,9 +17,9 @@
 
 #include "hal/host/sequence.h"
 #include "tools/ballvision/calib_io.h"
-#include "tools/ballvision/cli_args.h"
 #include "tools/ballvision/calib_omni.h"
 #include "tools/ballvision/calib_zhang.h"
+#include "tools/ballvision/cli_args.h"
 #include "tools/ballvision/commands.h"
 
 namespace bv::cli {

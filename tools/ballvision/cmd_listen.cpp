@@ -140,9 +140,9 @@ int CmdListen(int argc, char** argv) {
     } else if (a == "--baud" && i + 1 < argc) {
       std::string e;
       if (!ArgIntAs(a, argv[++i], 1, 4000000, baud, e) || !BaudFlag(baud)) {
-        std::fprintf(stderr, "ballvision listen: %s\n",
-                     e.empty() ? ("--baud: unsupported rate " + std::to_string(baud)).c_str()
-                               : e.c_str());
+        std::fprintf(
+            stderr, "ballvision listen: %s\n",
+            e.empty() ? ("--baud: unsupported rate " + std::to_string(baud)).c_str() : e.c_str());
         return 2;
       }
     } else if (a == "--seconds" && i + 1 < argc) {

@@ -232,8 +232,10 @@ bool SelectBoxes(const BoxSource& b, std::vector<lut::BoxImage>& out) {
 int Train(const Args& a) {
   if (a.out.empty()) return LutUsage();
   if (a.sims.empty() && a.boxes.empty() && a.teach.empty()) {
-    std::fprintf(stderr, "ballvision lut train: no training source (--sim, --boxes or --teach); "
-                         "%s not written\n", a.out.c_str());
+    std::fprintf(stderr,
+                 "ballvision lut train: no training source (--sim, --boxes or --teach); "
+                 "%s not written\n",
+                 a.out.c_str());
     return 2;
   }
   std::string out_err;
@@ -289,8 +291,10 @@ int Train(const Args& a) {
   int ball = 0;
   for (uint32_t i = 0; i < ColorLut::kEntries; ++i) ball += lut.at(i) == ColorClass::kBall;
   if (ball == 0) {
-    std::fprintf(stderr, "ballvision lut train: the trained table has no ball cell (%.0f ball "
-                         "samples); %s not written\n", t.ball_samples(), a.out.c_str());
+    std::fprintf(stderr,
+                 "ballvision lut train: the trained table has no ball cell (%.0f ball "
+                 "samples); %s not written\n",
+                 t.ball_samples(), a.out.c_str());
     return 1;
   }
   std::vector<uint8_t> blob(kColorLutBlobBytes);

@@ -233,8 +233,9 @@ bool ReadSimCamera(const cli::TruthCsv& csv, size_t i, const std::string& cam, S
   }
   t.visible[c] = vis == "1";
   const std::pair<const char*, float*> cols[] = {
-      {"cu_", &t.cu[c]},           {"cv_", &t.cv[c]},         {"area_", &t.area[c]},
-      {"fullarea_", &t.fullarea[c]}, {"fullcu_", &t.fullcu[c]}, {"fullcv_", &t.fullcv[c]},
+      {"cu_", &t.cu[c]},          {"cv_", &t.cv[c]},
+      {"area_", &t.area[c]},      {"fullarea_", &t.fullarea[c]},
+      {"fullcu_", &t.fullcu[c]},  {"fullcv_", &t.fullcv[c]},
       {"visfrac_", &t.visfrac[c]}};
   for (const auto& [prefix, dst] : cols) {
     double v = 0;

@@ -43,8 +43,7 @@ class SafeOutput {
   }
   /// Numbers formatted exactly as std::ostream would (drop-in for an ofstream).
   template <typename T>
-    requires std::is_arithmetic_v<T>
-  SafeOutput& operator<<(T v) {
+  requires std::is_arithmetic_v<T> SafeOutput& operator<<(T v) {
     std::ostringstream o;
     o << v;
     Write(o.str());

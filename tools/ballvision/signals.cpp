@@ -36,7 +36,9 @@ int InterruptExitCode() { return 128 + g_signal; }
 
 void ReportInterrupt(const char* command) {
   std::fprintf(stderr, "%s: interrupted by %s; finishing with what was processed\n", command,
-               g_signal == SIGINT ? "SIGINT" : g_signal == SIGTERM ? "SIGTERM" : "a signal");
+               g_signal == SIGINT    ? "SIGINT"
+               : g_signal == SIGTERM ? "SIGTERM"
+                                     : "a signal");
 }
 
 }  // namespace bv::cli

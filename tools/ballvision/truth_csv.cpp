@@ -64,9 +64,7 @@ const std::string& TruthCsv::Text(size_t row, const std::string& column) const {
   return it == col_.end() ? kEmpty : rows_[row][it->second];
 }
 
-std::string TruthCsv::Where(size_t row) const {
-  return path_ + ":" + std::to_string(line_[row]);
-}
+std::string TruthCsv::Where(size_t row) const { return path_ + ":" + std::to_string(line_[row]); }
 
 bool TruthCsv::Number(size_t row, const std::string& column, double& v, bool allow_empty,
                       std::string& error) const {
@@ -83,8 +81,8 @@ bool TruthCsv::Number(size_t row, const std::string& column, double& v, bool all
   return true;
 }
 
-bool TruthCsv::Integer(size_t row, const std::string& column, int64_t lo, int64_t hi,
-                       int64_t& v, std::string& error) const {
+bool TruthCsv::Integer(size_t row, const std::string& column, int64_t lo, int64_t hi, int64_t& v,
+                       std::string& error) const {
   const std::string& s = Text(row, column);
   errno = 0;
   char* end = nullptr;

@@ -13,8 +13,7 @@ namespace bv::cli {
 class TruthCsv {
  public:
   /// Reads `path`; `required` columns must all be in the header.
-  bool Load(const std::string& path, const std::vector<std::string>& required,
-            std::string& error);
+  bool Load(const std::string& path, const std::vector<std::string>& required, std::string& error);
   size_t rows() const { return rows_.size(); }
   bool Has(const std::string& column) const { return col_.count(column) != 0; }
   /// Raw text of a field ("" for a column the file does not have).
