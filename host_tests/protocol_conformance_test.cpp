@@ -34,7 +34,7 @@ struct Outcome {
   json counters;
 };
 
-Outcome Run(const std::vector<uint8_t>& data) {
+Outcome Decode(const std::vector<uint8_t>& data) {
   Decoder d;
   FrameView f;
   Outcome o;
@@ -65,7 +65,7 @@ TEST(ProtocolConformance, EveryCaseSameVerdictsAndCounters) {
   ASSERT_GE(corpus["cases"].size(), 20u);
   for (const json& c : corpus["cases"]) {
     SCOPED_TRACE(c["name"].get<std::string>());
-    const Outcome o = Run(FromHex(c["hex"].get<std::string>()));
+    const Outcome o = Decode(FromHex(c["hex"].get<std::string>()));
     EXPECT_EQ(o.messages, c["messages"]);
     EXPECT_EQ(o.counters, c["expect"]);
   }
@@ -75,7 +75,7 @@ TEST(ProtocolConformance, EveryCaseSameVerdictsAndCounters) {
 TEST(ProtocolConformance, PayloadOverTheMaximumIsRefused) {
   for (const json& c : Corpus()["cases"]) {
     if (c["name"].get<std::string>().rfind("over_payload", 0) != 0) continue;
-    EXPECT_EQ(Run(FromHex(c["hex"].get<std::string>())).counters["frames_ok"], 0);
+    EXPECT_EQ(Decode(FromHex(c["hex"].get<std::string>())).counters["frames_ok"], 0);
   }
 }
 

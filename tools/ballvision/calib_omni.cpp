@@ -35,6 +35,8 @@
 #include "tools/ballvision/calib_io.h"
 #include "tools/ballvision/carpet_json.h"
 #include "tools/ballvision/cli_args.h"
+#include "tools/ballvision/safe_write.h"
+#include "tools/ballvision/signals.h"
 
 namespace bv::cli {
 namespace {
@@ -188,29 +190,32 @@ struct Frame {
   Image im;
 };
 
+// frames.csv through the strict sequence reader (hal/host/sequence.h); every omni image must
+// have the first one's size.
 bool LoadFrames(const std::string& seq, std::vector<Frame>& frames, std::string& error) {
-  std::ifstream f(fs::path(seq) / "frames.csv");
-  if (!f) {
-    error = "cannot open " + seq + "/frames.csv";
-    return false;
-  }
-  std::string line;
-  std::getline(f, line);
-  while (std::getline(f, line)) {
-    while (!line.empty() && (line.back() == '\r' || line.back() == '\n')) line.pop_back();
-    std::stringstream ls(line);
-    std::string idx, t, omni;
-    std::getline(ls, idx, ',');
-    std::getline(ls, t, ',');
-    std::getline(ls, omni, ',');
-    if (omni.empty()) continue;
+  host::Sequence sequence;
+  if (!host::LoadSequence(seq, sequence, error)) return false;
+  int first_w = 0, first_h = 0;
+  for (const host::SequenceEntry& e : sequence.entries) {
+    if (e.omni_path.empty()) continue;
+    if (cli::InterruptSignal()) {
+      error = "interrupted";
+      return false;
+    }
     Frame fr;
-    fr.index = std::atol(idx.c_str());
-    fr.name = omni;
+    fr.index = static_cast<long>(e.index);
+    fr.name = fs::path(e.omni_path).filename().string();
     // Through the same loader as the pipeline: PNG (via BT.601 YUYV) or raw .yuyv.
     std::vector<uint8_t> yuyv;
     int w = 0, h = 0;
-    if (!host::LoadYuyv((fs::path(seq) / omni).string(), yuyv, w, h, error)) return false;
+    if (!host::LoadYuyv(e.omni_path, yuyv, w, h, error)) return false;
+    if (first_w == 0) first_w = w, first_h = h;
+    if (w != first_w || h != first_h) {
+      error = e.omni_path + ": image is " + std::to_string(w) + "x" + std::to_string(h) +
+              ", expected " + std::to_string(first_w) + "x" + std::to_string(first_h) +
+              " (the sequence's first omni image)";
+      return false;
+    }
     cv::Mat3b rgb(h, w);
     host::YuyvToRgb(yuyv.data(), w, h, rgb.data);
     cv::cvtColor(rgb, fr.im.bgr, cv::COLOR_RGB2BGR);
@@ -789,13 +794,13 @@ int CalibrateOmni(int argc, char** argv) {
 
   if (!report.empty()) {
     fs::create_directories(report);
-    std::ofstream fs_((fs::path(report) / "omni_samples.csv").string());
+    std::ostringstream fs_;
     fs_ << "phi_deg,r_px,edge,edge_m,d_m,frame\n";
     for (const auto& x : samples) {
       fs_ << x.phi * 180 / kPi << ',' << x.r_px << ',' << x.edge << ','
           << (x.edge >= 0 ? edge_m[x.edge] : 0) << ',' << x.d_m << ',' << x.frame << '\n';
     }
-    std::ofstream fv((fs::path(report) / "omni_support.csv").string());
+    std::ostringstream fv;
     fv << "sector,phi_centre_deg,interpolated";
     for (int k = 0; k < kE; ++k) fv << ",r_" << edge_m[k];
     fv << "\n";
@@ -804,11 +809,23 @@ int CalibrateOmni(int argc, char** argv) {
       for (int k = 0; k < kE; ++k) fv << ',' << cal.support_px[s][k];
       fv << '\n';
     }
-    std::ofstream fy((fs::path(report) / "omni_symmetric.csv").string());
+    std::ostringstream fy;
     fy << "edge_m,r_px\n";
     for (int k = 0; k < kE; ++k) fy << edge_m[k] << ',' << sym[k] << '\n';
-    std::ofstream fr((fs::path(report) / "omni_residuals.json").string());
+    std::ostringstream fr;
     fr << residuals.dump(1) << '\n';
+    const std::pair<const char*, const std::ostringstream*> files[] = {
+        {"omni_samples.csv", &fs_},
+        {"omni_support.csv", &fv},
+        {"omni_symmetric.csv", &fy},
+        {"omni_residuals.json", &fr}};
+    for (const auto& [name, text] : files) {
+      std::string e;
+      if (!WriteFileAtomic((fs::path(report) / name).string(), text->str(), e)) {
+        std::fprintf(stderr, "calibrate omni: report: %s\n", e.c_str());
+        return 1;
+      }
+    }
     std::printf("report written to %s\n", report.c_str());
   }
 
@@ -818,6 +835,7 @@ int CalibrateOmni(int argc, char** argv) {
   section["symmetric_support_px"] = std::vector<double>(sym, sym + kE);
   section["rms_ground_rel"] = all_rms;
   section["symmetric_rms_ground_rel"] = all_sym;
+  if (InterruptSignal()) return 1;  // CmdCalibrate reports it; nothing written
   if (!UpdateCalibrationSection(out, "omni", section, error)) {
     std::fprintf(stderr, "calibrate omni: %s\n", error.c_str());
     return 1;

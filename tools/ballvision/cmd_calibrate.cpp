@@ -21,6 +21,8 @@
 #include "tools/ballvision/calib_zhang.h"
 #include "tools/ballvision/cli_args.h"
 #include "tools/ballvision/commands.h"
+#include "tools/ballvision/signals.h"
+#include "tools/ballvision/strict_json.h"
 
 namespace bv::cli {
 namespace {
@@ -151,6 +153,10 @@ bool DetectImages(const std::string& dir, const std::string& prefix, int nx, int
     return false;
   }
   for (const auto& [name, path] : files) {
+    if (InterruptSignal()) {
+      error = "interrupted";
+      return false;
+    }
     cv::Mat gray;
     if (fs::path(path).extension() == ".yuyv") {  // raw camera frame: take the Y channel
       std::vector<uint8_t> yuyv;
@@ -197,37 +203,59 @@ bool DetectImages(const std::string& dir, const std::string& prefix, int nx, int
   return true;
 }
 
+// One {"image", "R" (3x3), "t" [x,y,z]} entry through the strict reader.
+bool ReadPose(const json& p, const std::string& path, size_t i, std::string& name,
+              Eigen::Matrix3d& R, Eigen::Vector3d& t, std::string& error) {
+  StrictObject r(p, path, "poses[" + std::to_string(i) + "]");
+  const json* rows = nullptr;
+  bool ok = r.IsObject() && r.String("image", name, {}) && (rows = r.Child("R")) != nullptr;
+  if (ok && (!rows->is_array() || rows->size() != 3)) ok = r.Fail("R", *rows, "3 rows of 3");
+  for (int k = 0; ok && k < 3; ++k) {
+    std::string key = "R[";
+    key += std::to_string(k);
+    key += ']';
+    const json wrap{{key, (*rows)[k]}};
+    StrictObject rr(wrap, path, "poses[" + std::to_string(i) + "]");
+    std::vector<double> row;
+    ok = (rr.NumberArray(key.c_str(), row, -1.001, 1.001) &&
+          (row.size() == 3 || rr.Fail(key, (*rows)[k], "3 numbers"))) ||
+         r.Adopt(rr);
+    for (int c = 0; ok && c < 3; ++c) R(k, c) = row[c];
+  }
+  std::vector<double> tv;
+  ok = ok && r.NumberArray("t", tv, -100, 100) &&
+       (tv.size() == 3 || r.Fail("t", p["t"], "3 numbers (m)"));
+  if (ok) t = Eigen::Vector3d(tv[0], tv[1], tv[2]);
+  if (!ok) error = r.error();
+  return ok;
+}
+
 bool LoadPoses(const std::string& path, const std::vector<ZhangView>& views,
                std::vector<BoardPose>& poses, std::string& error) {
   json j;
   if (!ReadJsonFile(path, j, error)) return false;
-  if (j.is_discarded() || !j.contains("poses") || !j["poses"].is_array()) {
-    error = path + ": expected {\"poses\": [{\"image\", \"R\", \"t\"}]}";
+  StrictObject top(j, path, "");
+  const json* list = top.IsObject() ? top.Child("poses") : nullptr;
+  if (list && !list->is_array()) top.Fail("poses", *list, "an array of {image, R, t}");
+  if (!top.error().empty()) {
+    error = top.error();
     return false;
   }
-  for (const auto& p : j["poses"]) {
-    if (!p.contains("image") || !p.contains("R") || !p.contains("t")) {
-      error = path + ": a pose lacks image, R or t";
-      return false;
-    }
-    const std::string name = p["image"].get<std::string>();
+  for (size_t i = 0; i < list->size(); ++i) {
+    std::string name;
+    BoardPose bp;
+    if (!ReadPose((*list)[i], path, i, name, bp.R, bp.t, error)) return false;
     int view = -1;
-    for (size_t i = 0; i < views.size(); ++i) {
-      if (views[i].name == name ||
-          fs::path(views[i].name).filename() == fs::path(name).filename()) {
-        view = static_cast<int>(i);
+    for (size_t k = 0; k < views.size(); ++k) {
+      if (views[k].name == name ||
+          fs::path(views[k].name).filename() == fs::path(name).filename()) {
+        view = static_cast<int>(k);
       }
     }
     if (view < 0) continue;  // that image was not usable
-    BoardPose bp;
     bp.view = view;
-    for (int r = 0; r < 3; ++r) {
-      for (int c = 0; c < 3; ++c) bp.R(r, c) = p["R"][r][c].get<double>();
-      bp.t[r] = p["t"][r].get<double>();
-    }
-    if (!bp.R.allFinite() || !bp.t.allFinite() ||
-        (bp.R.transpose() * bp.R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() > 1e-4) {
-      error = path + ": pose of " + name + " is not a finite rotation";
+    if ((bp.R.transpose() * bp.R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() > 1e-4) {
+      error = path + ": pose of " + name + " is not a rotation";
       return false;
     }
     poses.push_back(bp);
@@ -375,6 +403,7 @@ int CalibratePersp(int argc, char** argv) {
   section["views"] = static_cast<int>(views.size());
   section["per_image_rms_px"] = per_image;
   for (auto& [k, v] : extra.items()) section[k] = v;
+  if (InterruptSignal()) return 1;  // CmdCalibrate reports it; nothing written
   if (!UpdateCalibrationSection(out, "persp", section, error)) {
     std::fprintf(stderr, "calibrate persp: %s\n", error.c_str());
     return 1;
@@ -386,8 +415,17 @@ int CalibratePersp(int argc, char** argv) {
 }  // namespace
 
 int CmdCalibrate(int argc, char** argv) {
-  if (argc >= 2 && !std::strcmp(argv[1], "persp")) return CalibratePersp(argc - 1, argv + 1);
-  if (argc >= 2 && !std::strcmp(argv[1], "omni")) return CalibrateOmni(argc - 1, argv + 1);
+  // Ctrl-C: the steps stop at the next image; a calibration from part of the data is not
+  // written (the file keeps its old content).
+  InstallInterruptHandlers();
+  int rc = -1;
+  if (argc >= 2 && !std::strcmp(argv[1], "persp")) rc = CalibratePersp(argc - 1, argv + 1);
+  if (argc >= 2 && !std::strcmp(argv[1], "omni")) rc = CalibrateOmni(argc - 1, argv + 1);
+  if (rc >= 0 && InterruptSignal()) {
+    ReportInterrupt("ballvision calibrate");
+    return InterruptExitCode();
+  }
+  if (rc >= 0) return rc;
   std::fprintf(stderr, "usage: ballvision calibrate persp|omni ... (--help for options)\n");
   return 2;
 }
