@@ -157,6 +157,9 @@ class Outputs(Base):
         self.refused(["calib", "to-blob", REF, "/dev/null"], 1, "it is a device")
         self.refused(["lut", "train", "--out", link, "--teach", "x.png:1,1"], 1,
                      "it is a symbolic link", [victim])
+        self.refused(["listen", GOLDEN, "--csv", link], 1, "it is a symbolic link", [victim])
+        self.refused(["run", self.seq(), "--calib", REF, "--out", link], 1,
+                     "it is a symbolic link", [victim])
 
     def test_file_size_limit_is_an_error_and_keeps_the_old_file(self):
         out = self.path("out.json")
@@ -211,6 +214,53 @@ class Sequences(Base):
         s = self.seq(truth="index,t_us,ball_x,ball_y,ball_z\n")
         self.refused(["eval", s, "--calib", REF], 1, "truth.csv: no data rows")
 
+    def test_frames_csv_and_grid_csv(self):
+        s = self.seq()
+        write(self.path("s/frames.csv"), "index,t_us,omni_file,persp_file\n0,12x,,p0.png\n")
+        self.refused(["run", s, "--calib", REF], 1,
+                     "frames.csv:2: t_us '12x' is not a non-negative integer")
+        s = self.seq(truth="index,t_us,ball_x,ball_y,ball_z\n0,0,1,2,3\n")
+        write(self.path("s/grid.csv"), "index,bearing_deg,distance_m,z_m\n0,0.0,far,0.11\n")
+        self.refused(["eval", s, "--calib", REF], 1,
+                     "grid.csv:2: column distance_m: got 'far', expected a number")
+
+    def test_carpet_and_poses(self):
+        s = self.seq()
+        carpet = {"edges_m": [0.3 + 0.5 * i for i in range(17)],
+                  "colors": ["white", "blue"] * 8, "frames": [{"index": 0, "t_us": 0}]}
+        for edit, msg in ((lambda c: c["colors"].__setitem__(3, "green"),
+                           'carpet.json: colors[3]: got "green" (string), expected "white"'),
+                          (lambda c: c.__setitem__("width_m", "0.6"),
+                           'carpet.json: width_m: got "0.6" (string), expected a number'),
+                          (lambda c: None,
+                           "carpet.json: frames[0].carpet_azimuth_robot_deg: missing")):
+            c = json.loads(json.dumps(carpet))
+            edit(c)
+            write(self.path("s/carpet.json"), json.dumps(c))
+            out = self.path("o.json")
+            with self.subTest(msg=msg):
+                self.refused(["calibrate", "omni", s, "--viewpoint-z", "0.4", "--out", out], 1,
+                             msg, [out])
+        write(self.path("c.csv"), "image,corner,X,Y,u,v,in_image\n")
+        eye = [[1, 0, 0], [0, 1, 0], [0, 0, 1]]
+        for pose, msg in (({"image": 3, "R": eye, "t": [0, 0, 1]},
+                           "poses.json: poses[0].image: got 3 (integer), expected a string"),
+                          ({"image": "a.png", "R": [[1, 0, 0], [0, 1, "0"], [0, 0, 1]],
+                            "t": [0, 0, 1]},
+                           'poses.json: poses[0].R[1][2]: got "0" (string), expected a number'),
+                          ({"image": "a.png", "R": eye, "t": [0, 0]},
+                           "poses.json: poses[0].t: got [0,0] (array), expected 3 numbers (m)"),
+                          ({"image": "a.png", "R": [[1, 0, 0], [0, 1, 0], [0, 0, 0.5]],
+                            "t": [0, 0, 1]}, "poses.json: poses[0].R (a.png) is not a rotation")):
+            write(self.path("poses.json"), json.dumps({"poses": [pose]}))
+            with self.subTest(msg=msg):
+                self.refused(["calibrate", "persp", "--corners", self.path("c.csv"), "--poses",
+                              self.path("poses.json"), "--out", self.path("o.json")], 1, msg)
+
+    def test_lut_blob_garbage(self):
+        write(self.path("bad.lut"), b"BVB1" + bytes(100))
+        self.refused(["lut", "show", self.path("bad.lut")], 1, "bad.lut: blob: ")
+
     def test_lut_train_without_sources(self):
         lut = self.path("t.lut")
         self.refused(["lut", "train", "--out", lut], 2, "no training source", [lut])
@@ -247,7 +297,12 @@ class Signals(Base):
                              stderr=subprocess.PIPE, env=env)
         p.stdin.write(data + golden)  # 72 + 1 ball states, 1 status
         p.stdin.flush()
-        time.sleep(1.0)
+        # The temporary CSV exists once the listener runs (its handlers are installed by then).
+        deadline = time.monotonic() + 20
+        while time.monotonic() < deadline and not any(
+                f.startswith(".t.csv.") for f in os.listdir(self.d)):
+            time.sleep(0.05)
+        time.sleep(0.5)
         p.send_signal(sig)
         out, err = p.communicate(timeout=20)
         return p.returncode, out.decode(), err.decode()

@@ -245,6 +245,10 @@ bool LoadPoses(const std::string& path, const std::vector<ZhangView>& views,
     std::string name;
     BoardPose bp;
     if (!ReadPose((*list)[i], path, i, name, bp.R, bp.t, error)) return false;
+    if ((bp.R.transpose() * bp.R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() > 1e-4) {
+      error = path + ": poses[" + std::to_string(i) + "].R (" + name + ") is not a rotation";
+      return false;
+    }
     int view = -1;
     for (size_t k = 0; k < views.size(); ++k) {
       if (views[k].name == name ||
@@ -254,10 +258,6 @@ bool LoadPoses(const std::string& path, const std::vector<ZhangView>& views,
     }
     if (view < 0) continue;  // that image was not usable
     bp.view = view;
-    if ((bp.R.transpose() * bp.R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() > 1e-4) {
-      error = path + ": pose of " + name + " is not a rotation";
-      return false;
-    }
     poses.push_back(bp);
   }
   return true;
@@ -324,6 +324,12 @@ int CalibratePersp(int argc, char** argv) {
   }
   std::vector<ZhangView> views;
   std::string error;
+  std::vector<BoardPose> checked;
+  if (!poses_path.empty() && !LoadPoses(poses_path, {}, checked, error)) {
+    // Checked before the calibration: a bad poses file should not cost the whole run.
+    std::fprintf(stderr, "calibrate persp: %s; no calibration written\n", error.c_str());
+    return 1;
+  }
   if (!corners.empty()
           ? !LoadCornersCsv(corners, views, error)
           : !DetectImages(images, prefix, nx, ny, square, views, width, height, error)) {

@@ -231,6 +231,22 @@ bool ReadTruth(const std::string& path, std::map<uint64_t, Truth>& out, std::str
   return true;
 }
 
+// EvalGrid skips rows it cannot use; here every row must be usable, or the file is refused.
+bool CheckGridCsv(const std::string& path, std::string& error) {
+  TruthCsv csv;
+  if (!csv.Load(path, {"index", "distance_m", "z_m"}, error)) return false;
+  for (size_t i = 0; i < csv.rows(); ++i) {
+    int64_t idx = 0;
+    double v = 0;
+    if (!csv.Integer(i, "index", INT64_MIN, INT64_MAX, idx, error) ||
+        !csv.Number(i, "distance_m", v, false, error) || !csv.Number(i, "z_m", v, false, error) ||
+        !csv.Number(i, "bearing_deg", v, true, error)) {
+      return false;
+    }
+  }
+  return true;
+}
+
 const Truth* TruthAt(const std::map<uint64_t, Truth>& m, uint64_t t_us) {
   auto it = m.lower_bound(t_us > 1000 ? t_us - 1000 : 0);
   if (it == m.end() || it->first > t_us + 1000 || !it->second.has) return nullptr;
@@ -357,7 +373,12 @@ int CmdEval(int argc, char** argv) {
     std::fprintf(stderr, "ballvision eval: %s (eval needs ground truth)\n", err.c_str());
     return 1;
   }
-  const bool is_grid = ReadCsv((fs::path(a.seq) / "grid.csv").string(), grid_csv, err);
+  const std::string grid_path = (fs::path(a.seq) / "grid.csv").string();
+  const bool is_grid = fs::exists(grid_path);
+  if (is_grid && !(CheckGridCsv(grid_path, err) && ReadCsv(grid_path, grid_csv, err))) {
+    std::fprintf(stderr, "ballvision eval: %s\n", err.c_str());
+    return 1;
+  }
   if (a.predict_ms < 0) a.predict_ms = 200;
   Setup s;
   if (!Prepare(a, "eval", s)) return 1;

@@ -193,15 +193,26 @@ def main(argv=None) -> int:
     ap.add_argument("--baud", type=_baud, default=921600)
     ap.add_argument("--seconds", type=_non_negative, default=0)
     a = ap.parse_args(argv)
+    old = {s: signal.signal(s, _on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        return _listen(a)
+    finally:
+        for s, h in old.items():
+            signal.signal(s, h)
+
+
+def _listen(a) -> int:
     try:
         listener = _Listener(a)
     except OSError as e:
         print(f"ballvision_link: {e}", file=sys.stderr)
         return 1
-    read = _open(a.source, a.baud)
-    old = {s: signal.signal(s, _on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
+    except Interrupted as e:
+        print("ballvision_link: interrupted before the first read", file=sys.stderr)
+        return 128 + e.signum
     start, interrupted = time.monotonic(), None
     try:
+        read = _open(a.source, a.baud)
         while not a.seconds or time.monotonic() - start < a.seconds:
             data = read()
             if data is None:
@@ -212,9 +223,6 @@ def main(argv=None) -> int:
                 listener.handle(msg)
     except Interrupted as e:
         interrupted = e.signum
-    finally:
-        for s, h in old.items():
-            signal.signal(s, h)
     if interrupted:
         print(f"ballvision_link: interrupted by {signal.Signals(interrupted).name}; "
               "finishing with what was received", file=sys.stderr)
