@@ -19,6 +19,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 REF = os.path.join(HERE, "data", "reference_rig_calib.json")
 GOLDEN = os.path.join(HERE, "data", "protocol_golden.bin")
 PYLINK = os.path.join(HERE, "..", "tools", "python")
+BOUNCE = os.path.join(HERE, "..", "..", "shared", "data", "sim", "bounce")
 BV = None  # set from argv
 
 
@@ -320,6 +321,25 @@ class Signals(Base):
                 self.check(*self.interrupt([BV, "listen", "-", "--csv", self.path("t.csv"),
                                             "--status-csv", self.path("s.csv"), "--quiet"], sig),
                            sig)
+
+    @unittest.skipUnless(os.path.isdir(BOUNCE), "shared data absent")
+    def test_run_sigint_writes_the_frames_done(self):
+        out = self.path("st.csv")
+        p = subprocess.Popen([BV, "run", BOUNCE, "--calib", REF, "--out", out],
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+        seen = b""
+        while b"/60 frames" not in seen:  # the progress bar: frames are being processed
+            chunk = os.read(p.stderr.fileno(), 4096)
+            self.assertTrue(chunk, "run ended before it showed progress")
+            seen += chunk
+        p.send_signal(signal.SIGINT)
+        _, err = p.communicate(timeout=60)
+        err = (seen + err).decode()
+        self.assertEqual(p.returncode, 130, err)
+        self.assertIn("interrupted by SIGINT", err)
+        rows = len(read(out).splitlines()) - 1
+        self.assertIn(f"{rows} frames, ball found in", err)
+        self.assertTrue(0 < rows < 60, rows)
 
     def test_python_listen_sigint_and_sigterm(self):
         env = dict(os.environ, PYTHONPATH=PYLINK)
