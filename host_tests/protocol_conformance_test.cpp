@@ -73,7 +73,8 @@ TEST(ProtocolConformance, EveryCaseSameVerdictsAndCounters) {
 
 // The documented maximum is enforced whatever the CRC says (issue 15: Python took 1500).
 TEST(ProtocolConformance, PayloadOverTheMaximumIsRefused) {
-  for (const json& c : Corpus()["cases"]) {
+  const json corpus = Corpus();  // named: a temporary's member would dangle in the loop
+  for (const json& c : corpus["cases"]) {
     if (c["name"].get<std::string>().rfind("over_payload", 0) != 0) continue;
     EXPECT_EQ(Decode(FromHex(c["hex"].get<std::string>())).counters["frames_ok"], 0);
   }
