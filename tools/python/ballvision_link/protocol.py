@@ -11,7 +11,8 @@ MSG_STATUS = 0x02
 HEADER = struct.Struct("<BBHIH")
 MAX_PAYLOAD = 1024
 # Receive limits of core/protocol's Decoder (kMaxRawFrameBytes, kMaxWireFrameBytes): a frame
-# beyond them is refused the same way by both decoders (tests/protocol_conformance.json).
+# beyond them is refused the same way by both decoders
+# (host_tests/data/protocol_conformance.json).
 MAX_RAW_FRAME = HEADER.size + MAX_PAYLOAD + 4
 MAX_WIRE_FRAME = MAX_RAW_FRAME + MAX_RAW_FRAME // 254 + 2
 
