@@ -89,6 +89,8 @@ class Pipeline {
   /// Errors: kFailedPrecondition when the calibration is not valid for any camera,
   /// kInvalidArgument / kResourceExhausted from building the scan tables.
   Status Init(const RigCalibration& calibration, const ColorLut& lut, const PipelineConfig& config);
+  /// The calibration given to Init (nullptr before).
+  const RigCalibration* calibration() const { return calibration_; }
   /// Runs one frame pair. Always fills `out` (found=false and flags when nothing was seen).
   /// proc_us is left 0: the caller owns the clock.
   Status Process(const FrameInput& in, BallState& out);

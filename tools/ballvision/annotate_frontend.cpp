@@ -6,6 +6,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "hal/host/sequence.h"
+#include "tools/ballvision/safe_write.h"
 
 namespace bv {
 namespace {
@@ -107,8 +108,10 @@ bool AnnotateFrontEnd(const YuyvImage& image, const ColorLut& lut, const Scanlin
                 cv::Scalar(255, 0, 255), 1);
   }
   try {
-    if (!cv::imwrite(png_path, out)) {
-      if (error) *error = png_path + ": cannot write";
+    std::vector<uchar> png;
+    std::string e;
+    if (!cv::imencode(".png", out, png) || !cli::WriteFileAtomic(png_path, png, e)) {
+      if (error) *error = e.empty() ? png_path + ": PNG encoding failed" : e;
       return false;
     }
   } catch (const cv::Exception& e) {

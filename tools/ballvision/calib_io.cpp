@@ -7,148 +7,143 @@
 
 #include "core/common/blob.h"
 #include "core/common/crc32.h"
+#include "tools/ballvision/safe_write.h"
+#include "tools/ballvision/strict_json.h"
 
 namespace bv::cli {
 namespace {
 
 using nlohmann::json;
 
-bool GetNumber(const json& j, const char* key, double& v, std::string& error,
-               const std::string& where) {
-  if (!j.contains(key)) {
-    error = where + "." + key + " missing";
-    return false;
-  }
-  if (!j[key].is_number()) {
-    error = where + "." + key + " is not a number";
-    return false;
-  }
-  v = j[key].get<double>();
-  if (!std::isfinite(v)) {
-    error = where + "." + key + " is not finite";
-    return false;
-  }
-  return true;
+constexpr double kBig = 1e30;
+
+// Appends instead of operator+ (GCC 12 reports a false -Wrestrict on "[" + to_string(i)).
+std::string IndexKey(int i) {
+  std::string k("[");
+  k.append(std::to_string(i));
+  k.push_back(']');
+  return k;
 }
 
-bool GetFloat(const json& j, const char* key, float& v, std::string& error,
-              const std::string& where) {
-  double d = 0;
-  if (!GetNumber(j, key, d, error, where)) return false;
-  v = static_cast<float>(d);
-  return true;
+// Ranges follow the device's blob checks (core/calibration) so a refusal names the field here.
+bool PerspIntrinsicsFromJson(StrictObject& r, PerspCalibration& p) {
+  const bool v = p.valid;
+  int64_t w = 0, h = 0;
+  if (!r.Int("width_px", w, 16, 4096) || !r.Int("height_px", h, 16, 4096)) return false;
+  p.width_px = static_cast<int>(w);
+  p.height_px = static_cast<int>(h);
+  return r.Float("fx", p.fx, v ? 1 : -kBig, v ? 1e5 : kBig) &&
+         r.Float("fy", p.fy, v ? 1 : -kBig, v ? 1e5 : kBig) &&
+         r.Float("cx", p.cx, v ? -w : -kBig, v ? 2.0 * w : kBig) &&
+         r.Float("cy", p.cy, v ? -h : -kBig, v ? 2.0 * h : kBig) &&
+         r.Float("skew", p.skew, v ? -1e4 : -kBig, v ? 1e4 : kBig) &&
+         r.Float("k1", p.k1, v ? -100 : -kBig, v ? 100 : kBig) &&
+         r.Float("k2", p.k2, v ? -1000 : -kBig, v ? 1000 : kBig) &&
+         r.Float("rms_px", p.rms_px, v ? 0 : -kBig, v ? 1e3 : kBig, /*required=*/false);
 }
 
-bool GetFloatArray(const json& j, const char* key, float* dst, size_t n, std::string& error,
-                   const std::string& where) {
-  if (!j.contains(key) || !j[key].is_array() || j[key].size() != n) {
-    error = where + "." + key + " must be an array of " + std::to_string(n) + " numbers";
-    return false;
-  }
-  for (size_t i = 0; i < n; ++i) {
-    if (!j[key][i].is_number()) {
-      error = where + "." + key + "[" + std::to_string(i) + "] is not a number";
-      return false;
-    }
-    dst[i] = static_cast<float>(j[key][i].get<double>());
-  }
-  return true;
-}
-
-bool PerspFromJson(const json& j, PerspCalibration& p, std::string& error) {
-  const std::string w = "persp";
+bool PerspFromJson(const json& j, const std::string& file, PerspCalibration& p,
+                   std::vector<std::string>* unknown, std::string& error) {
   p = PerspCalibration{};
-  if (!j.is_object()) {
-    error = "persp is not an object";
-    return false;
+  StrictObject r(j, file, "persp");
+  std::string model;
+  bool ok = r.IsObject() && r.Bool("valid", p.valid) && PerspIntrinsicsFromJson(r, p) &&
+            r.String("model", model, {"zhang_k1k2", "zhang_k1k2_skew"}, /*required=*/false);
+  if (ok && model == "zhang_k1k2" && p.skew != 0) {
+    ok = r.Fail("skew", j["skew"], "0 for model \"zhang_k1k2\" (no skew)");
   }
-  p.valid = j.value("valid", true);
-  double d = 0;
-  if (!GetNumber(j, "width_px", d, error, w)) return false;
-  p.width_px = static_cast<int>(d);
-  if (!GetNumber(j, "height_px", d, error, w)) return false;
-  p.height_px = static_cast<int>(d);
-  if (!GetFloat(j, "fx", p.fx, error, w) || !GetFloat(j, "fy", p.fy, error, w) ||
-      !GetFloat(j, "cx", p.cx, error, w) || !GetFloat(j, "cy", p.cy, error, w) ||
-      !GetFloat(j, "skew", p.skew, error, w) || !GetFloat(j, "k1", p.k1, error, w) ||
-      !GetFloat(j, "k2", p.k2, error, w)) {
-    return false;
-  }
-  if (j.contains("rms_px") && !GetFloat(j, "rms_px", p.rms_px, error, w)) return false;
-  if (j.contains("R_robot_cam")) {
-    const json& r = j["R_robot_cam"];
-    if (!r.is_array() || r.size() != 3) {
-      error = "persp.R_robot_cam must be 3x3";
-      return false;
+  if (ok && r.Has("R_robot_cam")) {
+    const json& rows = *r.Child("R_robot_cam");
+    if (!rows.is_array() || rows.size() != 3) {
+      ok = r.Fail("R_robot_cam", rows, "3 rows of 3 numbers");
     }
-    for (int i = 0; i < 3; ++i) {
+    for (int i = 0; ok && i < 3; ++i) {
       float row[3];
-      if (!GetFloatArray(json{{"row", r[i]}}, "row", row, 3, error, "persp.R_robot_cam")) {
-        return false;
-      }
-      for (int c = 0; c < 3; ++c) p.R_robot_cam(i, c) = row[c];
+      const std::string key = IndexKey(i);
+      const json wrap{{key, rows[i]}};
+      StrictObject rr(wrap, file, "persp.R_robot_cam");
+      ok = rr.FloatArray(key.c_str(), row, 3, -1.001, 1.001) || r.Adopt(rr);
+      for (int c = 0; ok && c < 3; ++c) p.R_robot_cam(i, c) = row[c];
     }
   }
-  if (j.contains("t_robot_cam")) {
-    float t[3];
-    if (!GetFloatArray(j, "t_robot_cam", t, 3, error, w)) return false;
+  float t[3];
+  if (ok && r.FloatArray("t_robot_cam", t, 3, -100, 100, /*required=*/false) &&
+      r.Has("t_robot_cam")) {
     p.t_robot_cam = Eigen::Vector3f(t[0], t[1], t[2]);
   }
+  ok = ok && r.error().empty();
+  r.Allow({"views", "per_image_rms_px", "pose_rms_px", "pose_views"});
+  if (!ok) error = r.error();
+  if (ok && unknown) {
+    for (auto& k : r.UnknownKeys()) unknown->push_back(k);
+  }
+  return ok;
+}
+
+bool OmniScalarsFromJson(StrictObject& r, OmniCalibration& o) {
+  const bool v = o.valid;
+  int64_t sign = 0;
+  if (!r.Int("image_angle_sign", sign, -1, 1)) return false;
+  if (sign == 0) return r.Fail("image_angle_sign", 0, "1 or -1");
+  o.image_angle_sign = static_cast<int8_t>(sign);
+  double sector = 0;
+  if (r.Has("sector_deg") && !r.Number("sector_deg", sector, -kBig, kBig)) return false;
+  if (r.Has("sector_deg") && sector != 360.0 / OmniCalibration::kDirections) {
+    return r.Fail("sector_deg", sector, "8 (45 sectors of 8 degrees)");
+  }
+  return r.Float("center_u", o.center_u, v ? 0 : -kBig, v ? 4096 : kBig) &&
+         r.Float("center_v", o.center_v, v ? 0 : -kBig, v ? 4096 : kBig) &&
+         r.Float("viewpoint_z_m", o.viewpoint_z_m, v ? 0.01 : -kBig, v ? 10 : kBig) &&
+         r.Float("image_angle_offset_rad", o.image_angle_offset_rad, -4 * M_PI, 4 * M_PI) &&
+         r.FloatArray("edge_ground_m", o.edge_ground_m, OmniCalibration::kEdges, v ? 0 : -kBig,
+                      v ? 100 : kBig);
+}
+
+bool OmniTablesFromJson(StrictObject& r, const std::string& file, OmniCalibration& o) {
+  const bool v = o.valid;
+  const json* rows = r.Child("support_px");
+  if (!rows) return false;
+  if (!rows->is_array() || rows->size() != OmniCalibration::kDirections) {
+    return r.Fail("support_px", *rows, "45 rows of 12 numbers");
+  }
+  for (int s = 0; s < OmniCalibration::kDirections; ++s) {
+    const std::string key = IndexKey(s);
+    const json wrap{{key, (*rows)[s]}};
+    StrictObject rr(wrap, file, "omni.support_px");
+    if (!rr.FloatArray(key.c_str(), o.support_px[s], OmniCalibration::kEdges, v ? 0 : -kBig,
+                       v ? 4096 : kBig)) {
+      return r.Adopt(rr);
+    }
+  }
+  const json* flags = r.Child("sector_flags", /*required=*/false);
+  if (!flags) return true;
+  if (!flags->is_array() || flags->size() != OmniCalibration::kDirections) {
+    return r.Fail("sector_flags", *flags, "an array of 45 integers 0 or 1");
+  }
+  for (int s = 0; s < OmniCalibration::kDirections; ++s) {
+    int64_t f = 0;
+    const std::string key = IndexKey(s);
+    const json wrap{{key, (*flags)[s]}};
+    StrictObject fr(wrap, file, "omni.sector_flags");
+    if (!fr.Int(key.c_str(), f, 0, 1)) return r.Adopt(fr);
+    o.sector_flags[s] = static_cast<uint8_t>(f);
+  }
   return true;
 }
 
-bool OmniFromJson(const json& j, OmniCalibration& o, std::string& error) {
-  const std::string w = "omni";
+bool OmniFromJson(const json& j, const std::string& file, OmniCalibration& o,
+                  std::vector<std::string>* unknown, std::string& error) {
   o = OmniCalibration{};
-  if (!j.is_object()) {
-    error = "omni is not an object";
-    return false;
+  StrictObject r(j, file, "omni");
+  const bool ok = r.IsObject() && r.Bool("valid", o.valid) && OmniScalarsFromJson(r, o) &&
+                  OmniTablesFromJson(r, file, o);
+  r.Allow({"samples", "rim_radius_px", "symmetric_support_px", "rms_ground_rel",
+           "symmetric_rms_ground_rel"});
+  if (!ok) error = r.error();
+  if (ok && unknown) {
+    for (auto& k : r.UnknownKeys()) unknown->push_back(k);
   }
-  o.valid = j.value("valid", true);
-  if (!GetFloat(j, "center_u", o.center_u, error, w) ||
-      !GetFloat(j, "center_v", o.center_v, error, w) ||
-      !GetFloat(j, "viewpoint_z_m", o.viewpoint_z_m, error, w)) {
-    return false;
-  }
-  double sign = 1;
-  if (j.contains("image_angle_sign") && !GetNumber(j, "image_angle_sign", sign, error, w)) {
-    return false;
-  }
-  o.image_angle_sign = static_cast<int8_t>(sign < 0 ? -1 : 1);
-  if (j.contains("image_angle_offset_rad") &&
-      !GetFloat(j, "image_angle_offset_rad", o.image_angle_offset_rad, error, w)) {
-    return false;
-  }
-  if (!GetFloatArray(j, "edge_ground_m", o.edge_ground_m, OmniCalibration::kEdges, error, w)) {
-    return false;
-  }
-  if (!j.contains("support_px") || !j["support_px"].is_array() ||
-      j["support_px"].size() != OmniCalibration::kDirections) {
-    error = "omni.support_px must be 45 rows of 12";
-    return false;
-  }
-  for (int s = 0; s < OmniCalibration::kDirections; ++s) {
-    if (!GetFloatArray(json{{"row", j["support_px"][s]}}, "row", o.support_px[s],
-                       OmniCalibration::kEdges, error,
-                       "omni.support_px[" + std::to_string(s) + "]")) {
-      return false;
-    }
-  }
-  if (j.contains("sector_flags")) {
-    const json& f = j["sector_flags"];
-    if (!f.is_array() || f.size() != OmniCalibration::kDirections) {
-      error = "omni.sector_flags must have 45 entries";
-      return false;
-    }
-    for (int s = 0; s < OmniCalibration::kDirections; ++s) {
-      if (!f[s].is_number_integer() || f[s].get<int>() < 0 || f[s].get<int>() > 255) {
-        error = "omni.sector_flags[" + std::to_string(s) + "] is not a byte";
-        return false;
-      }
-      o.sector_flags[s] = static_cast<uint8_t>(f[s].get<int>());
-    }
-  }
-  return true;
+  return ok;
 }
 
 }  // namespace
@@ -219,35 +214,37 @@ bool CalibrationToBlob(const RigCalibration& cal, std::vector<uint8_t>& blob, st
   return true;
 }
 
-bool CalibrationFromJson(const json& j, RigCalibration& out, std::string& error) {
+bool CalibrationFromJson(const json& j, RigCalibration& out, std::string& error,
+                         const std::string& file, std::vector<std::string>* unknown) {
   RigCalibration cal;
-  if (!j.is_object()) {
-    error = "calibration JSON is not an object";
+  StrictObject r(j, file, "");
+  std::string format;
+  int64_t version = 0;
+  bool ok = r.IsObject() && r.String("format", format, {"ballvision-calibration"}) &&
+            r.Int("version", version, kCalibrationBlobVersion, kCalibrationBlobVersion) &&
+            r.U32("calibration_id", cal.calibration_id, /*required=*/false) &&
+            r.U32("lut_id", cal.lut_id) && r.Float("ball_radius_m", cal.ball_radius_m, 0.01, 1.0);
+  if (!ok) {
+    error = r.error();
     return false;
   }
-  if (j.contains("version") && j["version"].is_number() &&
-      j["version"].get<int>() > kCalibrationBlobVersion) {
-    error = "calibration JSON version newer than this tool understands";
+  std::vector<std::string> unknown_here;
+  const json* persp = r.Child("persp", /*required=*/false);
+  const json* omni = r.Child("omni", /*required=*/false);
+  if ((persp && !PerspFromJson(*persp, file, cal.persp, &unknown_here, error)) ||
+      (omni && !OmniFromJson(*omni, file, cal.omni, &unknown_here, error))) {
     return false;
   }
-  double d = 0;
-  if (j.contains("calibration_id")) {
-    if (!GetNumber(j, "calibration_id", d, error, "calibration")) return false;
-    cal.calibration_id = static_cast<uint32_t>(d);
-  }
-  if (j.contains("lut_id")) {
-    if (!GetNumber(j, "lut_id", d, error, "calibration")) return false;
-    cal.lut_id = static_cast<uint32_t>(d);
-  }
-  if (j.contains("ball_radius_m") &&
-      !GetFloat(j, "ball_radius_m", cal.ball_radius_m, error, "calibration")) {
-    return false;
-  }
-  if (j.contains("persp") && !PerspFromJson(j["persp"], cal.persp, error)) return false;
-  if (j.contains("omni") && !OmniFromJson(j["omni"], cal.omni, error)) return false;
-  // Same checks as the device.
+  // Same checks as the device (cross-field: rotation, increasing edges and support vectors).
   std::vector<uint8_t> blob;
-  if (!CalibrationToBlob(cal, blob, error)) return false;
+  if (!CalibrationToBlob(cal, blob, error)) {
+    if (!file.empty()) error = file + ": " + error;
+    return false;
+  }
+  if (unknown) {
+    *unknown = r.UnknownKeys();
+    unknown->insert(unknown->end(), unknown_here.begin(), unknown_here.end());
+  }
   out = cal;
   return true;
 }
@@ -262,39 +259,30 @@ bool ReadFileBytes(const std::string& path, std::vector<uint8_t>& bytes, std::st
   return true;
 }
 
-bool ReadJsonFile(const std::string& path, json& out, std::string& error) {
-  std::vector<uint8_t> bytes;
-  if (!ReadFileBytes(path, bytes, error)) return false;
-  out = json::parse(bytes.begin(), bytes.end(), nullptr, /*allow_exceptions=*/false);
-  if (out.is_discarded()) {
-    error = path + ": not valid JSON";
+namespace {
+
+// The parser's own message says where the text stops being JSON (line, column, token).
+bool ParseJsonBytes(const std::vector<uint8_t>& bytes, const std::string& path, json& out,
+                    std::string& error) {
+  try {
+    out = json::parse(bytes.begin(), bytes.end());
+    return true;
+  } catch (const json::exception& e) {
+    error = path + ": not valid JSON (" + e.what() + ")";
     return false;
   }
-  return true;
+}
+
+}  // namespace
+
+bool ReadJsonFile(const std::string& path, json& out, std::string& error) {
+  std::vector<uint8_t> bytes;
+  return ReadFileBytes(path, bytes, error) && ParseJsonBytes(bytes, path, out, error);
 }
 
 bool WriteFileBytes(const std::string& path, const std::vector<uint8_t>& bytes,
                     std::string& error) {
-  // Write to a temporary name and rename, so a failed write never leaves half a file.
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
-    if (!f) {
-      error = "cannot write " + tmp;
-      return false;
-    }
-    f.write(reinterpret_cast<const char*>(bytes.data()),
-            static_cast<std::streamsize>(bytes.size()));
-    if (!f) {
-      error = "write failed: " + tmp;
-      return false;
-    }
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    error = "cannot rename " + tmp + " to " + path;
-    return false;
-  }
-  return true;
+  return WriteFileAtomic(path, bytes, error);
 }
 
 bool LoadCalibrationFile(const std::string& path, RigCalibration& out, std::string& error) {
@@ -309,15 +297,15 @@ bool LoadCalibrationFile(const std::string& path, RigCalibration& out, std::stri
     }
     return true;
   }
-  json j = json::parse(bytes.begin(), bytes.end(), nullptr, /*allow_exceptions=*/false);
-  if (j.is_discarded()) {
-    error = path + ": neither a calibration blob nor valid JSON";
+  json j;
+  if (!ParseJsonBytes(bytes, path, j, error)) {
+    error += "; not a calibration blob either (no BVB1 magic)";
     return false;
   }
-  std::string e;
-  if (!CalibrationFromJson(j, out, e)) {
-    error = path + ": " + e;
-    return false;
+  std::vector<std::string> unknown;
+  if (!CalibrationFromJson(j, out, error, path, &unknown)) return false;
+  for (const std::string& k : unknown) {
+    std::fprintf(stderr, "warning: %s: unknown key, ignored\n", k.c_str());
   }
   return true;
 }

@@ -26,9 +26,12 @@ bool LoadCalibrationFile(const std::string& path, bv::RigCalibration& out, std::
 bool SaveCalibrationJson(const std::string& path, const bv::RigCalibration& cal,
                          std::string& error);
 
-/// JSON <-> struct. FromJson validates; missing sections become valid = false.
+/// JSON <-> struct. FromJson validates types, ranges, format and version (messages name
+/// `file`, the field, the value and what was expected); missing sections become
+/// valid = false. Keys it does not know are returned in `unknown` (not an error).
 nlohmann::json CalibrationToJson(const bv::RigCalibration& cal);
-bool CalibrationFromJson(const nlohmann::json& j, bv::RigCalibration& out, std::string& error);
+bool CalibrationFromJson(const nlohmann::json& j, bv::RigCalibration& out, std::string& error,
+                         const std::string& file = "", std::vector<std::string>* unknown = nullptr);
 nlohmann::json PerspToJson(const bv::PerspCalibration& p);
 nlohmann::json OmniToJson(const bv::OmniCalibration& o);
 

@@ -33,6 +33,10 @@
 #include "core/calibration/calibration.h"
 #include "hal/host/sequence.h"
 #include "tools/ballvision/calib_io.h"
+#include "tools/ballvision/carpet_json.h"
+#include "tools/ballvision/cli_args.h"
+#include "tools/ballvision/safe_write.h"
+#include "tools/ballvision/signals.h"
 
 namespace bv::cli {
 namespace {
@@ -47,7 +51,13 @@ constexpr double kSectorRad = 2 * kPi / kS;
 constexpr double kRayStepPx = 0.25;
 constexpr int kMinSamplesPerEdge = 2;  // fewer in a sector: occluded, interpolated
 
-enum Label : uint8_t { kOther = 0, kWhite = 1, kBlue = 2, kRed = 3 };
+// Same codes as Carpet::colors (carpet_json.h).
+enum Label : uint8_t {
+  kOther = kCarpetOther,
+  kWhite = kCarpetWhite,
+  kBlue = kCarpetBlue,
+  kRed = kCarpetRed
+};
 
 struct Rgb {
   float r = 0, g = 0, b = 0;
@@ -61,13 +71,6 @@ Label Classify(Rgb c) {
   if (c.b - std::max(c.r, c.g) > 35 && c.b > 70) return kBlue;
   if (c.r - std::max(c.g, c.b) > 40 && c.r > 80) return kRed;
   if (mn > 110 && mx - mn < 40) return kWhite;
-  return kOther;
-}
-
-Label LabelOf(const std::string& name) {
-  if (name == "white") return kWhite;
-  if (name == "blue") return kBlue;
-  if (name == "red") return kRed;
   return kOther;
 }
 
@@ -154,54 +157,6 @@ std::vector<Transition> ScanRay(const Image& im, double cu, double cv, double ph
   return out;
 }
 
-struct Carpet {
-  std::vector<double> edges_m;
-  std::vector<Label> colors;
-  double width_m = 0.6, thickness_m = 0;
-  std::map<long, double> azimuth_rad;  // frame index -> carpet azimuth (CCW from +x)
-};
-
-bool LoadCarpet(const std::string& path, Carpet& c, std::string& error) {
-  json j;
-  if (!ReadJsonFile(path, j, error)) return false;
-  if (j.is_discarded() || !j.contains("edges_m") || !j.contains("colors") ||
-      !j.contains("frames")) {
-    error = path + ": needs edges_m, colors and frames";
-    return false;
-  }
-  for (const auto& e : j["edges_m"]) c.edges_m.push_back(e.get<double>());
-  for (const auto& e : j["colors"]) c.colors.push_back(LabelOf(e.get<std::string>()));
-  if (c.colors.size() + 1 != c.edges_m.size()) {
-    error = path + ": colors must have one entry less than edges_m";
-    return false;
-  }
-  for (size_t i = 1; i < c.edges_m.size(); ++i) {
-    if (!(c.edges_m[i] > c.edges_m[i - 1])) {
-      error = path + ": edges_m not increasing";
-      return false;
-    }
-  }
-  if (c.edges_m.size() < static_cast<size_t>(kE)) {
-    error = path + ": the carpet has fewer than 12 edges (12 support vectors per direction)";
-    return false;
-  }
-  c.width_m = j.value("width_m", 0.6);
-  c.thickness_m = j.value("thickness_m", 0.0);
-  for (const auto& fr : j["frames"]) {
-    double az = 0;
-    if (fr.contains("carpet_azimuth_robot_deg")) {
-      az = fr["carpet_azimuth_robot_deg"].get<double>();
-    } else if (fr.contains("carpet_bearing_deg")) {
-      az = 90.0 - fr["carpet_bearing_deg"].get<double>();  // bearing: clockwise from +y
-    } else {
-      error = path + ": a frame lacks carpet_azimuth_robot_deg / carpet_bearing_deg";
-      return false;
-    }
-    c.azimuth_rad[fr["index"].get<long>()] = Wrap2Pi(az * kPi / 180);
-  }
-  return true;
-}
-
 // Numbers the transitions of one ray by the carpet's uniquely coloured patch: the transition
 // into it is edge `anchor_patch`; walking inwards and outwards, each transition must match the
 // carpet's colour sequence. Returns (transition index, carpet edge index) pairs.
@@ -235,29 +190,32 @@ struct Frame {
   Image im;
 };
 
+// frames.csv through the strict sequence reader (hal/host/sequence.h); every omni image must
+// have the first one's size.
 bool LoadFrames(const std::string& seq, std::vector<Frame>& frames, std::string& error) {
-  std::ifstream f(fs::path(seq) / "frames.csv");
-  if (!f) {
-    error = "cannot open " + seq + "/frames.csv";
-    return false;
-  }
-  std::string line;
-  std::getline(f, line);
-  while (std::getline(f, line)) {
-    while (!line.empty() && (line.back() == '\r' || line.back() == '\n')) line.pop_back();
-    std::stringstream ls(line);
-    std::string idx, t, omni;
-    std::getline(ls, idx, ',');
-    std::getline(ls, t, ',');
-    std::getline(ls, omni, ',');
-    if (omni.empty()) continue;
+  host::Sequence sequence;
+  if (!host::LoadSequence(seq, sequence, error)) return false;
+  int first_w = 0, first_h = 0;
+  for (const host::SequenceEntry& e : sequence.entries) {
+    if (e.omni_path.empty()) continue;
+    if (cli::InterruptSignal()) {
+      error = "interrupted";
+      return false;
+    }
     Frame fr;
-    fr.index = std::atol(idx.c_str());
-    fr.name = omni;
+    fr.index = static_cast<long>(e.index);
+    fr.name = fs::path(e.omni_path).filename().string();
     // Through the same loader as the pipeline: PNG (via BT.601 YUYV) or raw .yuyv.
     std::vector<uint8_t> yuyv;
     int w = 0, h = 0;
-    if (!host::LoadYuyv((fs::path(seq) / omni).string(), yuyv, w, h, error)) return false;
+    if (!host::LoadYuyv(e.omni_path, yuyv, w, h, error)) return false;
+    if (first_w == 0) first_w = w, first_h = h;
+    if (w != first_w || h != first_h) {
+      error = e.omni_path + ": image is " + std::to_string(w) + "x" + std::to_string(h) +
+              ", expected " + std::to_string(first_w) + "x" + std::to_string(first_h) +
+              " (the sequence's first omni image)";
+      return false;
+    }
     cv::Mat3b rgb(h, w);
     host::YuyvToRgb(yuyv.data(), w, h, rgb.data);
     cv::cvtColor(rgb, fr.im.bgr, cv::COLOR_RGB2BGR);
@@ -385,7 +343,12 @@ int CalibrateOmni(int argc, char** argv) {
       if (a == "--carpet") {
         carpet_path = v;
       } else if (a == "--viewpoint-z") {
-        f_o = std::atof(v.c_str());
+        std::string e;
+        if (!ArgNumber(a, v, 0.05, 5, f_o, e)) {
+          std::fprintf(stderr, "calibrate omni: %s (the mirror viewpoint height in metres)\n",
+                       e.c_str());
+          return 2;
+        }
       } else if (a == "--out") {
         out = v;
       } else if (a == "--report") {
@@ -831,13 +794,13 @@ int CalibrateOmni(int argc, char** argv) {
 
   if (!report.empty()) {
     fs::create_directories(report);
-    std::ofstream fs_((fs::path(report) / "omni_samples.csv").string());
+    std::ostringstream fs_;
     fs_ << "phi_deg,r_px,edge,edge_m,d_m,frame\n";
     for (const auto& x : samples) {
       fs_ << x.phi * 180 / kPi << ',' << x.r_px << ',' << x.edge << ','
           << (x.edge >= 0 ? edge_m[x.edge] : 0) << ',' << x.d_m << ',' << x.frame << '\n';
     }
-    std::ofstream fv((fs::path(report) / "omni_support.csv").string());
+    std::ostringstream fv;
     fv << "sector,phi_centre_deg,interpolated";
     for (int k = 0; k < kE; ++k) fv << ",r_" << edge_m[k];
     fv << "\n";
@@ -846,11 +809,23 @@ int CalibrateOmni(int argc, char** argv) {
       for (int k = 0; k < kE; ++k) fv << ',' << cal.support_px[s][k];
       fv << '\n';
     }
-    std::ofstream fy((fs::path(report) / "omni_symmetric.csv").string());
+    std::ostringstream fy;
     fy << "edge_m,r_px\n";
     for (int k = 0; k < kE; ++k) fy << edge_m[k] << ',' << sym[k] << '\n';
-    std::ofstream fr((fs::path(report) / "omni_residuals.json").string());
+    std::ostringstream fr;
     fr << residuals.dump(1) << '\n';
+    const std::pair<const char*, const std::ostringstream*> files[] = {
+        {"omni_samples.csv", &fs_},
+        {"omni_support.csv", &fv},
+        {"omni_symmetric.csv", &fy},
+        {"omni_residuals.json", &fr}};
+    for (const auto& [name, text] : files) {
+      std::string e;
+      if (!WriteFileAtomic((fs::path(report) / name).string(), text->str(), e)) {
+        std::fprintf(stderr, "calibrate omni: report: %s\n", e.c_str());
+        return 1;
+      }
+    }
     std::printf("report written to %s\n", report.c_str());
   }
 
@@ -860,6 +835,7 @@ int CalibrateOmni(int argc, char** argv) {
   section["symmetric_support_px"] = std::vector<double>(sym, sym + kE);
   section["rms_ground_rel"] = all_rms;
   section["symmetric_rms_ground_rel"] = all_sym;
+  if (InterruptSignal()) return 1;  // CmdCalibrate reports it; nothing written
   if (!UpdateCalibrationSection(out, "omni", section, error)) {
     std::fprintf(stderr, "calibrate omni: %s\n", error.c_str());
     return 1;

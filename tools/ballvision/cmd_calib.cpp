@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "tools/ballvision/calib_io.h"
+#include "tools/ballvision/cli_args.h"
 #include "tools/ballvision/commands.h"
 
 namespace bv::cli {
@@ -102,7 +103,7 @@ int CmdCalib(int argc, char** argv) {
     }
     return 0;
   }
-  if (sub == "set" && argc >= 5) {
+  if (sub == "set" && argc >= 5 && (argc - 3) % 2 == 0) {
     // Rig constants outside the camera sections; the file is validated before it is written.
     std::vector<uint8_t> bytes;
     if (!ReadFileBytes(argv[2], bytes, error)) {
@@ -116,18 +117,26 @@ int CmdCalib(int argc, char** argv) {
     }
     for (int i = 3; i + 1 < argc; i += 2) {
       const std::string key = argv[i];
-      char* end = nullptr;
+      std::string e;
       if (key == "--lut-id") {
-        const unsigned long v = std::strtoul(argv[i + 1], &end, 0);
-        if (*end != '\0' || v > 0xFFFFFFFFul) {
-          std::fprintf(stderr, "calib set: --lut-id wants a 32-bit number\n");
+        int64_t v = 0;
+        const std::string text = argv[i + 1];
+        const bool hex = text.rfind("0x", 0) == 0 || text.rfind("0X", 0) == 0;
+        char* end = nullptr;
+        if (hex) v = static_cast<int64_t>(std::strtoull(text.c_str() + 2, &end, 16));
+        if (hex ? (text.size() < 3 || text.size() > 10 || *end != '\0')
+                : !ArgInt(key, text, 0, 0xFFFFFFFFll, v, e)) {
+          std::fprintf(stderr,
+                       "calib set: --lut-id: got '%s', expected a 32-bit id (decimal "
+                       "or 0x hex)\n",
+                       text.c_str());
           return 2;
         }
         j["lut_id"] = static_cast<uint32_t>(v);
       } else if (key == "--ball-radius") {
-        const double v = std::strtod(argv[i + 1], &end);
-        if (*end != '\0') {
-          std::fprintf(stderr, "calib set: --ball-radius wants metres\n");
+        double v = 0;
+        if (!ArgNumber(key, argv[i + 1], 0.01, 1.0, v, e)) {
+          std::fprintf(stderr, "calib set: %s (metres)\n", e.c_str());
           return 2;
         }
         j["ball_radius_m"] = v;
@@ -136,7 +145,7 @@ int CmdCalib(int argc, char** argv) {
         return 2;
       }
     }
-    if (!CalibrationFromJson(j, cal, error)) {
+    if (!CalibrationFromJson(j, cal, error, argv[2])) {
       std::fprintf(stderr, "calib set: not written: %s\n", error.c_str());
       return 1;
     }

@@ -19,7 +19,10 @@
 #include "tools/ballvision/calib_io.h"
 #include "tools/ballvision/calib_omni.h"
 #include "tools/ballvision/calib_zhang.h"
+#include "tools/ballvision/cli_args.h"
 #include "tools/ballvision/commands.h"
+#include "tools/ballvision/signals.h"
+#include "tools/ballvision/strict_json.h"
 
 namespace bv::cli {
 namespace {
@@ -150,6 +153,10 @@ bool DetectImages(const std::string& dir, const std::string& prefix, int nx, int
     return false;
   }
   for (const auto& [name, path] : files) {
+    if (InterruptSignal()) {
+      error = "interrupted";
+      return false;
+    }
     cv::Mat gray;
     if (fs::path(path).extension() == ".yuyv") {  // raw camera frame: take the Y channel
       std::vector<uint8_t> yuyv;
@@ -196,39 +203,61 @@ bool DetectImages(const std::string& dir, const std::string& prefix, int nx, int
   return true;
 }
 
+// One {"image", "R" (3x3), "t" [x,y,z]} entry through the strict reader.
+bool ReadPose(const json& p, const std::string& path, size_t i, std::string& name,
+              Eigen::Matrix3d& R, Eigen::Vector3d& t, std::string& error) {
+  StrictObject r(p, path, "poses[" + std::to_string(i) + "]");
+  const json* rows = nullptr;
+  bool ok = r.IsObject() && r.String("image", name, {}) && (rows = r.Child("R")) != nullptr;
+  if (ok && (!rows->is_array() || rows->size() != 3)) ok = r.Fail("R", *rows, "3 rows of 3");
+  for (int k = 0; ok && k < 3; ++k) {
+    std::string key = "R[";
+    key += std::to_string(k);
+    key += ']';
+    const json wrap{{key, (*rows)[k]}};
+    StrictObject rr(wrap, path, "poses[" + std::to_string(i) + "]");
+    std::vector<double> row;
+    ok = (rr.NumberArray(key.c_str(), row, -1.001, 1.001) &&
+          (row.size() == 3 || rr.Fail(key, (*rows)[k], "3 numbers"))) ||
+         r.Adopt(rr);
+    for (int c = 0; ok && c < 3; ++c) R(k, c) = row[c];
+  }
+  std::vector<double> tv;
+  ok = ok && r.NumberArray("t", tv, -100, 100) &&
+       (tv.size() == 3 || r.Fail("t", p["t"], "3 numbers (m)"));
+  if (ok) t = Eigen::Vector3d(tv[0], tv[1], tv[2]);
+  if (!ok) error = r.error();
+  return ok;
+}
+
 bool LoadPoses(const std::string& path, const std::vector<ZhangView>& views,
                std::vector<BoardPose>& poses, std::string& error) {
   json j;
   if (!ReadJsonFile(path, j, error)) return false;
-  if (j.is_discarded() || !j.contains("poses") || !j["poses"].is_array()) {
-    error = path + ": expected {\"poses\": [{\"image\", \"R\", \"t\"}]}";
+  StrictObject top(j, path, "");
+  const json* list = top.IsObject() ? top.Child("poses") : nullptr;
+  if (list && !list->is_array()) top.Fail("poses", *list, "an array of {image, R, t}");
+  if (!top.error().empty()) {
+    error = top.error();
     return false;
   }
-  for (const auto& p : j["poses"]) {
-    if (!p.contains("image") || !p.contains("R") || !p.contains("t")) {
-      error = path + ": a pose lacks image, R or t";
+  for (size_t i = 0; i < list->size(); ++i) {
+    std::string name;
+    BoardPose bp;
+    if (!ReadPose((*list)[i], path, i, name, bp.R, bp.t, error)) return false;
+    if ((bp.R.transpose() * bp.R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() > 1e-4) {
+      error = path + ": poses[" + std::to_string(i) + "].R (" + name + ") is not a rotation";
       return false;
     }
-    const std::string name = p["image"].get<std::string>();
     int view = -1;
-    for (size_t i = 0; i < views.size(); ++i) {
-      if (views[i].name == name ||
-          fs::path(views[i].name).filename() == fs::path(name).filename()) {
-        view = static_cast<int>(i);
+    for (size_t k = 0; k < views.size(); ++k) {
+      if (views[k].name == name ||
+          fs::path(views[k].name).filename() == fs::path(name).filename()) {
+        view = static_cast<int>(k);
       }
     }
     if (view < 0) continue;  // that image was not usable
-    BoardPose bp;
     bp.view = view;
-    for (int r = 0; r < 3; ++r) {
-      for (int c = 0; c < 3; ++c) bp.R(r, c) = p["R"][r][c].get<double>();
-      bp.t[r] = p["t"][r].get<double>();
-    }
-    if (!bp.R.allFinite() || !bp.t.allFinite() ||
-        (bp.R.transpose() * bp.R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() > 1e-4) {
-      error = path + ": pose of " + name + " is not a finite rotation";
-      return false;
-    }
     poses.push_back(bp);
   }
   return true;
@@ -243,6 +272,7 @@ int CalibratePersp(int argc, char** argv) {
     const std::string a = argv[i];
     auto next = [&]() -> const char* { return i + 1 < argc ? argv[++i] : nullptr; };
     const char* v = nullptr;
+    std::string e;
     if (a == "--skew") {
       opt.skew = true;
     } else if (a == "--help" || a == "-h") {
@@ -262,17 +292,26 @@ int CalibratePersp(int argc, char** argv) {
     } else if (a == "--out") {
       out = v;
     } else if (a == "--square") {
-      square = std::atof(v);
+      if (!ArgNumber(a, v, 1e-4, 10, square, e)) {
+        std::fprintf(stderr, "calibrate persp: %s (board square size in metres)\n", e.c_str());
+        return 2;
+      }
     } else if (a == "--board") {
-      if (std::sscanf(v, "%dx%d", &nx, &ny) != 2 || nx < 2 || ny < 2) {
-        std::fprintf(stderr, "calibrate persp: --board wants NXxNY inner corners, e.g. 9x6\n");
+      int64_t bx = 0, by = 0;
+      if (!ArgIntPair(a, v, 'x', 2, 100, bx, by, e)) {
+        std::fprintf(stderr, "calibrate persp: %s (NXxNY inner corners, e.g. 9x6)\n", e.c_str());
         return 2;
       }
+      nx = static_cast<int>(bx);
+      ny = static_cast<int>(by);
     } else if (a == "--size") {
-      if (std::sscanf(v, "%dx%d", &width, &height) != 2) {
-        PerspUsage();
+      int64_t w = 0, h = 0;
+      if (!ArgIntPair(a, v, 'x', 16, 4096, w, h, e)) {
+        std::fprintf(stderr, "calibrate persp: %s (image size WxH in pixels)\n", e.c_str());
         return 2;
       }
+      width = static_cast<int>(w);
+      height = static_cast<int>(h);
     } else {
       std::fprintf(stderr, "calibrate persp: unknown option %s\n", a.c_str());
       PerspUsage();
@@ -285,6 +324,12 @@ int CalibratePersp(int argc, char** argv) {
   }
   std::vector<ZhangView> views;
   std::string error;
+  std::vector<BoardPose> checked;
+  if (!poses_path.empty() && !LoadPoses(poses_path, {}, checked, error)) {
+    // Checked before the calibration: a bad poses file should not cost the whole run.
+    std::fprintf(stderr, "calibrate persp: %s; no calibration written\n", error.c_str());
+    return 1;
+  }
   if (!corners.empty()
           ? !LoadCornersCsv(corners, views, error)
           : !DetectImages(images, prefix, nx, ny, square, views, width, height, error)) {
@@ -364,6 +409,7 @@ int CalibratePersp(int argc, char** argv) {
   section["views"] = static_cast<int>(views.size());
   section["per_image_rms_px"] = per_image;
   for (auto& [k, v] : extra.items()) section[k] = v;
+  if (InterruptSignal()) return 1;  // CmdCalibrate reports it; nothing written
   if (!UpdateCalibrationSection(out, "persp", section, error)) {
     std::fprintf(stderr, "calibrate persp: %s\n", error.c_str());
     return 1;
@@ -375,8 +421,17 @@ int CalibratePersp(int argc, char** argv) {
 }  // namespace
 
 int CmdCalibrate(int argc, char** argv) {
-  if (argc >= 2 && !std::strcmp(argv[1], "persp")) return CalibratePersp(argc - 1, argv + 1);
-  if (argc >= 2 && !std::strcmp(argv[1], "omni")) return CalibrateOmni(argc - 1, argv + 1);
+  // Ctrl-C: the steps stop at the next image; a calibration from part of the data is not
+  // written (the file keeps its old content).
+  InstallInterruptHandlers();
+  int rc = -1;
+  if (argc >= 2 && !std::strcmp(argv[1], "persp")) rc = CalibratePersp(argc - 1, argv + 1);
+  if (argc >= 2 && !std::strcmp(argv[1], "omni")) rc = CalibrateOmni(argc - 1, argv + 1);
+  if (rc >= 0 && InterruptSignal()) {
+    ReportInterrupt("ballvision calibrate");
+    return InterruptExitCode();
+  }
+  if (rc >= 0) return rc;
   std::fprintf(stderr, "usage: ballvision calibrate persp|omni ... (--help for options)\n");
   return 2;
 }

@@ -18,7 +18,10 @@
 #include <string>
 
 #include "core/protocol/protocol.h"
+#include "tools/ballvision/cli_args.h"
 #include "tools/ballvision/commands.h"
+#include "tools/ballvision/safe_write.h"
+#include "tools/ballvision/signals.h"
 #include "tools/ballvision/states_csv.h"
 
 namespace bv::cli {
@@ -118,6 +121,19 @@ int OpenSource(const std::string& src, long baud, std::string& err) {
   return fd;
 }
 
+// Both files are committed even if one fails: what was received is kept where possible.
+bool FinishListenOutputs(SafeOutput& csv, SafeOutput& status_csv) {
+  bool ok = true;
+  for (SafeOutput* out : {&csv, &status_csv}) {
+    std::string e;
+    if (out->is_open() && !out->Commit(e)) {
+      std::fprintf(stderr, "ballvision listen: %s\n", e.c_str());
+      ok = false;
+    }
+  }
+  return ok;
+}
+
 }  // namespace
 
 int CmdListen(int argc, char** argv) {
@@ -133,9 +149,19 @@ int CmdListen(int argc, char** argv) {
     } else if (a == "--status-csv" && i + 1 < argc) {
       status_path = argv[++i];
     } else if (a == "--baud" && i + 1 < argc) {
-      baud = std::strtol(argv[++i], nullptr, 10);
+      std::string e;
+      if (!ArgIntAs(a, argv[++i], 1, 4000000, baud, e) || !BaudFlag(baud)) {
+        std::fprintf(
+            stderr, "ballvision listen: %s\n",
+            e.empty() ? ("--baud: unsupported rate " + std::to_string(baud)).c_str() : e.c_str());
+        return 2;
+      }
     } else if (a == "--seconds" && i + 1 < argc) {
-      seconds = std::strtod(argv[++i], nullptr);
+      std::string e;
+      if (!ArgNumber(a, argv[++i], 0, 1e9, seconds, e)) {
+        std::fprintf(stderr, "ballvision listen: %s\n", e.c_str());
+        return 2;
+      }
     } else if (a == "--quiet") {
       quiet = true;
     } else {
@@ -148,17 +174,15 @@ int CmdListen(int argc, char** argv) {
     std::fprintf(stderr, "ballvision listen: %s\n", err.c_str());
     return 1;
   }
-  std::ofstream csv, status_csv;
-  if (!csv_path.empty()) {
-    csv.open(csv_path);
-    if (!csv) {
-      std::fprintf(stderr, "ballvision listen: cannot write %s\n", csv_path.c_str());
-      return 1;
-    }
-    csv << StatesCsvHeader(true);
+  SafeOutput csv, status_csv;
+  if ((!csv_path.empty() && !csv.Open(csv_path, err)) ||
+      (!status_path.empty() && !status_csv.Open(status_path, err))) {
+    std::fprintf(stderr, "ballvision listen: %s\n", err.c_str());
+    return 1;
   }
+  InstallInterruptHandlers();
+  if (!csv_path.empty()) csv << StatesCsvHeader(true);
   if (!status_path.empty()) {
-    status_csv.open(status_path);
     status_csv << "seq,uptime_us,frames_processed,frame_rate_hz,frames_dropped,deadline_overruns,"
                   "packets_dropped,pairs_omni_missing,pairs_persp_missing,pairs_out_of_sync,"
                   "pairs_out_of_order,pairs_torn,calibration_id,lut_id,calibration_state,"
@@ -173,8 +197,9 @@ int CmdListen(int argc, char** argv) {
   const auto start = std::chrono::steady_clock::now();
   uint8_t buf[4096];
   for (;;) {
-    if (seconds > 0 &&
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() > seconds) {
+    if (InterruptSignal()) break;
+    if (seconds > 0 && std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
+                               .count() > seconds) {
       break;
     }
     const ssize_t n = read(fd, buf, sizeof buf);
@@ -244,13 +269,15 @@ int CmdListen(int argc, char** argv) {
     }
   }
   if (fd != STDIN_FILENO) close(fd);
+  if (InterruptSignal()) ReportInterrupt("ballvision listen");
+  const bool written = FinishListenOutputs(csv, status_csv);
   const auto& ds = decoder.stats();
-  std::printf(
-      "summary: ball_states=%u status=%u other=%u bad_payloads=%u seq_gaps=%u "
-      "decoder_errors=%u (crc %u, cobs %u, oversize %u, short %u, version %u, length %u)\n",
-      balls, statuses, others, bad_payloads, seq_gaps, ds.errors(), ds.crc_errors, ds.cobs_errors,
-      ds.oversize, ds.short_frames, ds.version_errors, ds.length_errors);
-  return (balls + statuses) > 0 ? 0 : 1;
+  std::printf("summary: ball_states=%u status=%u other=%u bad_payloads=%u seq_gaps=%u "
+              "decoder_errors=%u (crc %u, cobs %u, oversize %u, short %u, version %u, length %u)\n",
+              balls, statuses, others, bad_payloads, seq_gaps, ds.errors(), ds.crc_errors,
+              ds.cobs_errors, ds.oversize, ds.short_frames, ds.version_errors, ds.length_errors);
+  if (InterruptSignal()) return InterruptExitCode();
+  return written && (balls + statuses) > 0 ? 0 : 1;
 }
 
 }  // namespace bv::cli

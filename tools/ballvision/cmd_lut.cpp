@@ -8,8 +8,11 @@
 #include <string>
 #include <vector>
 
+#include "tools/ballvision/cli_args.h"
 #include "tools/ballvision/commands.h"
 #include "tools/ballvision/lut_train.h"
+#include "tools/ballvision/safe_write.h"
+#include "tools/ballvision/signals.h"
 
 namespace bv::cli {
 namespace {
@@ -98,6 +101,11 @@ bool ParseArgs(int argc, char** argv, Args& a) {
   std::string split = "all";
   float cu = 314.2f, cv = 244.1f;  // reference rig mirror circle (render/README.md)
   std::string pending;             // a source modifier no source has used yet
+  std::string e;
+  auto Num = [&e](bool ok) {  // a refused number is a usage error with its own message
+    if (!ok) std::fprintf(stderr, "ballvision lut: %s\n", e.c_str());
+    return ok;
+  };
   for (int i = 2; i < argc; ++i) {
     const std::string k = argv[i];
     const bool has = i + 1 < argc;
@@ -131,10 +139,10 @@ bool ParseArgs(int argc, char** argv, Args& a) {
       if (!omni && !persp) return false;
       pending = k;
     } else if (k == "--every") {
-      every = std::max(1, std::atoi(val.c_str()));
+      if (!Num(ArgIntAs(k, val, 1, 1000000, every, e))) return false;
       pending = k;
     } else if (k == "--phase") {
-      phase = std::atoi(val.c_str());
+      if (!Num(ArgIntAs(k, val, 0, 999999, phase, e))) return false;
       pending = k;
     } else if (k == "--sim") {
       a.sims.push_back({val, omni, persp, every, phase});
@@ -150,22 +158,26 @@ bool ParseArgs(int argc, char** argv, Args& a) {
       if (a.boxes.empty()) return false;
       a.boxes.back().images = val;
       a.boxes.back().split = split;
-    } else if (k == "--ratio")
-      a.train.ratio = std::strtof(val.c_str(), nullptr);
-    else if (k == "--shade") {
-      if (std::sscanf(val.c_str(), "%f,%f", &a.train.shade_min, &a.train.shade_max) != 2) {
-        return false;
-      }
-    } else if (k == "--gauss")
-      a.train.gauss_d2 = std::strtof(val.c_str(), nullptr);
-    else if (k == "--gauss-veto")
-      a.train.gauss_veto = std::strtof(val.c_str(), nullptr);
-    else if (k == "--min-weight")
-      a.train.min_ball_weight = std::strtof(val.c_str(), nullptr);
-    else if (k == "--min-roundness")
-      a.setup.finder.min_roundness = std::strtof(val.c_str(), nullptr);
-    else if (k == "--center") {
-      if (std::sscanf(val.c_str(), "%f,%f", &cu, &cv) != 2) return false;
+    } else if (k == "--ratio") {
+      if (!Num(ArgNumberAs(k, val, 0, 1e6, a.train.ratio, e))) return false;
+    } else if (k == "--shade") {
+      double lo = 0, hi = 0;
+      if (!Num(ArgNumberPair(k, val, ',', 0.01, 100, lo, hi, e))) return false;
+      a.train.shade_min = static_cast<float>(lo);
+      a.train.shade_max = static_cast<float>(hi);
+    } else if (k == "--gauss") {
+      if (!Num(ArgNumberAs(k, val, 0, 1e6, a.train.gauss_d2, e))) return false;
+    } else if (k == "--gauss-veto") {
+      if (!Num(ArgNumberAs(k, val, 0, 1e6, a.train.gauss_veto, e))) return false;
+    } else if (k == "--min-weight") {
+      if (!Num(ArgNumberAs(k, val, 0, 1e9, a.train.min_ball_weight, e))) return false;
+    } else if (k == "--min-roundness") {
+      if (!Num(ArgNumberAs(k, val, 0, 1, a.setup.finder.min_roundness, e))) return false;
+    } else if (k == "--center") {
+      double u = 0, v = 0;
+      if (!Num(ArgNumberPair(k, val, ',', 0, 4096, u, v, e))) return false;
+      cu = static_cast<float>(u);
+      cv = static_cast<float>(v);
     } else if (k == "--teach") {
       Teach t;
       // IMG:U,V[:CLASS[:TOL]] — parse from the right.
@@ -176,10 +188,14 @@ bool ParseArgs(int argc, char** argv, Args& a) {
         start = p + 1;
       }
       parts.push_back(val.substr(start));
-      if (parts.size() < 2 || std::sscanf(parts[1].c_str(), "%d,%d", &t.u, &t.v) != 2) return false;
+      int64_t tu = 0, tv = 0;
+      if (parts.size() < 2) return false;
+      if (!Num(ArgIntPair(k, parts[1], ',', 0, 8191, tu, tv, e))) return false;
+      t.u = static_cast<int>(tu);
+      t.v = static_cast<int>(tv);
       t.image = parts[0];
       if (parts.size() > 2 && !ParseClass(parts[2], t.cls)) return false;
-      if (parts.size() > 3) t.tol = std::strtof(parts[3].c_str(), nullptr);
+      if (parts.size() > 3 && !Num(ArgNumberAs(k, parts[3], 0, 10, t.tol, e))) return false;
       a.teach.push_back(t);
     } else {
       std::fprintf(stderr, "ballvision lut: unknown option %s\n", k.c_str());
@@ -215,6 +231,19 @@ bool SelectBoxes(const BoxSource& b, std::vector<lut::BoxImage>& out) {
 
 int Train(const Args& a) {
   if (a.out.empty()) return LutUsage();
+  if (a.sims.empty() && a.boxes.empty() && a.teach.empty()) {
+    std::fprintf(stderr,
+                 "ballvision lut train: no training source (--sim, --boxes or --teach); "
+                 "%s not written\n",
+                 a.out.c_str());
+    return 2;
+  }
+  std::string out_err;
+  if (!CheckOutputPath(a.out, out_err)) {  // refuse before hours of training, not after
+    std::fprintf(stderr, "ballvision lut train: %s\n", out_err.c_str());
+    return 1;
+  }
+  InstallInterruptHandlers();
   lut::Trainer t(a.train);
   std::string err;
   for (const auto& s : a.sims) {
@@ -252,22 +281,33 @@ int Train(const Args& a) {
     std::printf("teach %s (%d,%d) %s: %d pixels\n", tc.image.c_str(), tc.u, tc.v,
                 ColorClassName(tc.cls), n);
   }
+  if (InterruptSignal()) {
+    ReportInterrupt("ballvision lut train");
+    std::fprintf(stderr, "ballvision lut train: a partly trained table is not written\n");
+    return InterruptExitCode();
+  }
   static ColorLut lut;
   lut = t.Build();
+  int ball = 0;
+  for (uint32_t i = 0; i < ColorLut::kEntries; ++i) ball += lut.at(i) == ColorClass::kBall;
+  if (ball == 0) {
+    std::fprintf(stderr,
+                 "ballvision lut train: the trained table has no ball cell (%.0f ball "
+                 "samples); %s not written\n",
+                 t.ball_samples(), a.out.c_str());
+    return 1;
+  }
   std::vector<uint8_t> blob(kColorLutBlobBytes);
   const Result<size_t> n = SerializeLut(lut, blob);
   if (!n.ok()) {
     std::fprintf(stderr, "ballvision lut: %s\n", n.status().message());
     return 1;
   }
-  std::ofstream out(a.out, std::ios::binary);
-  out.write(reinterpret_cast<const char*>(blob.data()), static_cast<std::streamsize>(*n));
-  if (!out) {
-    std::fprintf(stderr, "ballvision lut: cannot write %s\n", a.out.c_str());
+  blob.resize(*n);
+  if (!WriteFileAtomic(a.out, blob, err)) {
+    std::fprintf(stderr, "ballvision lut: %s\n", err.c_str());
     return 1;
   }
-  int ball = 0;
-  for (uint32_t i = 0; i < ColorLut::kEntries; ++i) ball += lut.at(i) == ColorClass::kBall;
   std::printf("wrote %s: %zu bytes, id 0x%08x, %d ball cells, %.0f ball / %.0f other samples\n",
               a.out.c_str(), *n, lut.Id(), ball, t.ball_samples(), t.other_samples());
   return 0;
@@ -275,7 +315,13 @@ int Train(const Args& a) {
 
 int Eval(const Args& a) {
   static ColorLut lut;
-  if (a.lut.empty() || !LoadLut(a.lut, lut)) return LutUsage();
+  if (a.lut.empty()) return LutUsage();
+  if (!LoadLut(a.lut, lut)) return 1;
+  if (a.sims.empty() && a.boxes.empty()) {
+    std::fprintf(stderr, "ballvision lut eval: nothing to evaluate (--sim or --boxes)\n");
+    return 2;
+  }
+  InstallInterruptHandlers();
   std::string err;
   for (const auto& s : a.sims) {
     for (int c = 0; c < 2; ++c) {

@@ -1,6 +1,7 @@
 // `ballvision run`, `eval` and `demo`: the full pipeline on captured sequences, its error
 // tables against truth.csv, and a self-contained demonstration.
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -22,7 +23,10 @@
 #include "tools/ballvision/demo_scene.h"
 #include "tools/ballvision/run_common.h"
 #include "tools/ballvision/run_pipeline.h"
+#include "tools/ballvision/safe_write.h"
+#include "tools/ballvision/signals.h"
 #include "tools/ballvision/states_csv.h"
+#include "tools/ballvision/truth_csv.h"
 
 namespace bv::cli {
 namespace {
@@ -145,15 +149,13 @@ bool WriteStates(const std::string& path, const std::vector<FrameRecord>& recs, 
     text += row;
   }
   if (path.empty() || path == "-") {
-    std::fputs(text.c_str(), stdout);
+    if (std::fputs(text.c_str(), stdout) < 0 || std::fflush(stdout) != 0) {
+      error = std::string("writing states to standard output failed: ") + std::strerror(errno);
+      return false;
+    }
     return true;
   }
-  std::ofstream f(path, std::ios::binary);
-  if (!f || !(f << text)) {
-    error = path + ": cannot write";
-    return false;
-  }
-  return true;
+  return WriteFileAtomic(path, text, error);
 }
 
 const char* MeasKind(const BallState& s) {
@@ -189,6 +191,7 @@ int CmdRun(int argc, char** argv) {
   rs.annotate_dir = a.annotate;
   rs.features_dir = a.features;
   std::vector<FrameRecord> recs;
+  InstallInterruptHandlers();
   if (!RunSequence(s.seq, *s.pipeline, rs, recs, err) ||
       !WriteStates(a.out, recs, a.predict_ms >= 0, err)) {
     std::fprintf(stderr, "ballvision run: %s\n", err.c_str());
@@ -201,6 +204,10 @@ int CmdRun(int argc, char** argv) {
   }
   std::fprintf(stderr, "%zu frames, ball found in %d, triangulated in %d%s%s\n", recs.size(), found,
                tri, a.out.empty() ? "" : ", states in ", a.out.c_str());
+  if (InterruptSignal()) {
+    ReportInterrupt("ballvision run");
+    return InterruptExitCode();
+  }
   return 0;
 }
 
@@ -212,21 +219,48 @@ struct Truth {
   std::string state;
 };
 
-std::map<uint64_t, Truth> ReadTruth(const CsvTable& t) {
-  std::map<uint64_t, Truth> out;
-  for (const auto& row : t.rows) {
-    double tu;
-    if (!Field(row, "t_us", tu)) continue;
+// Strict: a garbage truth.csv is an error naming the line, not "0 with a ball in truth".
+bool ReadTruth(const std::string& path, std::map<uint64_t, Truth>& out, std::string& error) {
+  TruthCsv csv;
+  if (!csv.Load(path, {"t_us", "ball_x", "ball_y", "ball_z"}, error)) return false;
+  for (size_t i = 0; i < csv.rows(); ++i) {
+    int64_t tu = 0;
     Truth tr;
-    tr.has = Field(row, "ball_x", tr.x) && Field(row, "ball_y", tr.y) && Field(row, "ball_z", tr.z);
-    Field(row, "ball_vx", tr.vx);
-    Field(row, "ball_vy", tr.vy);
-    Field(row, "ball_vz", tr.vz);
-    auto it = row.find("ball_state");
-    if (it != row.end()) tr.state = it->second;
-    out[static_cast<uint64_t>(tu)] = tr;
+    if (!csv.Integer(i, "t_us", 0, INT64_MAX, tu, error)) return false;
+    tr.has = !csv.Empty(i, "ball_x");
+    const std::pair<const char*, double*> pos[] = {
+        {"ball_x", &tr.x}, {"ball_y", &tr.y}, {"ball_z", &tr.z}};
+    for (const auto& [c, v] : pos) {
+      if (!csv.Number(i, c, *v, /*allow_empty=*/!tr.has, error)) return false;
+    }
+    if (!csv.Number(i, "ball_vx", tr.vx, true, error) ||
+        !csv.Number(i, "ball_vy", tr.vy, true, error) ||
+        !csv.Number(i, "ball_vz", tr.vz, true, error)) {
+      return false;
+    }
+    tr.state = csv.Text(i, "ball_state");
+    if (!out.emplace(static_cast<uint64_t>(tu), tr).second) {
+      error = csv.Where(i) + ": duplicate t_us " + std::to_string(tu);
+      return false;
+    }
   }
-  return out;
+  return true;
+}
+
+// EvalGrid skips rows it cannot use; here every row must be usable, or the file is refused.
+bool CheckGridCsv(const std::string& path, std::string& error) {
+  TruthCsv csv;
+  if (!csv.Load(path, {"index", "distance_m", "z_m"}, error)) return false;
+  for (size_t i = 0; i < csv.rows(); ++i) {
+    int64_t idx = 0;
+    double v = 0;
+    if (!csv.Integer(i, "index", INT64_MIN, INT64_MAX, idx, error) ||
+        !csv.Number(i, "distance_m", v, false, error) || !csv.Number(i, "z_m", v, false, error) ||
+        !csv.Number(i, "bearing_deg", v, true, error)) {
+      return false;
+    }
+  }
+  return true;
 }
 
 const Truth* TruthAt(const std::map<uint64_t, Truth>& m, uint64_t t_us) {
@@ -349,12 +383,18 @@ int CmdEval(int argc, char** argv) {
     return a.help ? 0 : 2;
   }
   namespace fs = std::filesystem;
-  CsvTable truth_csv, grid_csv;
-  if (!ReadCsv((fs::path(a.seq) / "truth.csv").string(), truth_csv, err)) {
+  CsvTable grid_csv;
+  std::map<uint64_t, Truth> truth;
+  if (!ReadTruth((fs::path(a.seq) / "truth.csv").string(), truth, err)) {
     std::fprintf(stderr, "ballvision eval: %s (eval needs ground truth)\n", err.c_str());
     return 1;
   }
-  const bool is_grid = ReadCsv((fs::path(a.seq) / "grid.csv").string(), grid_csv, err);
+  const std::string grid_path = (fs::path(a.seq) / "grid.csv").string();
+  const bool is_grid = fs::exists(grid_path);
+  if (is_grid && !(CheckGridCsv(grid_path, err) && ReadCsv(grid_path, grid_csv, err))) {
+    std::fprintf(stderr, "ballvision eval: %s\n", err.c_str());
+    return 1;
+  }
   if (a.predict_ms < 0) a.predict_ms = 200;
   Setup s;
   if (!Prepare(a, "eval", s)) return 1;
@@ -362,7 +402,6 @@ int CmdEval(int argc, char** argv) {
     std::error_code ec;
     fs::create_directories(a.plots, ec);
   }
-  const auto truth = ReadTruth(truth_csv);
 
   // Prediction made at the chosen time (paper Fig. 5 right): sampled from the filter.
   std::vector<double> pred_t, pred_z;
@@ -391,6 +430,7 @@ int CmdEval(int argc, char** argv) {
     }
   };
   std::vector<FrameRecord> recs;
+  InstallInterruptHandlers();
   if (!RunSequence(s.seq, *s.pipeline, rs, recs, err)) {
     std::fprintf(stderr, "ballvision eval: %s\n", err.c_str());
     return 1;
@@ -402,7 +442,12 @@ int CmdEval(int argc, char** argv) {
 
   if (!a.plots.empty()) {
     // Data behind the figures, for tools/python/plot_ball_eval.py.
-    std::ofstream m(a.plots + "/measurements.csv");
+    SafeOutput m, pr;
+    std::string e2;
+    if (!m.Open(a.plots + "/measurements.csv", e2) || !pr.Open(a.plots + "/prediction.csv", e2)) {
+      std::fprintf(stderr, "ballvision eval: %s\n", e2.c_str());
+      return 1;
+    }
     m << "index,t_us,kind,mx,my,mz,z_valid,gx,gy,gz\n";
     for (const auto& r : recs) {
       m << r.index << "," << r.state.t_us << "," << MeasKind(r.state) << ",";
@@ -421,10 +466,12 @@ int CmdEval(int argc, char** argv) {
       }
       m << "\n";
     }
-    std::ofstream pr(a.plots + "/prediction.csv");
     pr << "t_s,z\n";
     for (size_t i = 0; i < pred_t.size(); ++i) pr << pred_t[i] << "," << pred_z[i] << "\n";
-    std::string e2;
+    if (!m.Commit(e2) || !pr.Commit(e2)) {
+      std::fprintf(stderr, "ballvision eval: %s\n", e2.c_str());
+      return 1;
+    }
     if (!WriteStates(a.plots + "/states.csv", recs, true, e2)) {
       std::fprintf(stderr, "ballvision eval: %s\n", e2.c_str());
     }
@@ -470,9 +517,10 @@ int CmdEval(int argc, char** argv) {
           sz / n * 100);
     }
   }
+  if (InterruptSignal()) ReportInterrupt("ballvision eval");
   if (is_grid) {
     EvalGrid(a, grid_csv, recs, truth);
-    return 0;
+    return InterruptSignal() ? InterruptExitCode() : 0;
   }
 
   // Dynamic scenes: prediction errors.
@@ -592,7 +640,7 @@ int CmdEval(int argc, char** argv) {
       std::fprintf(stderr, "%s\n", err.c_str());
     }
   }
-  return 0;
+  return InterruptSignal() ? InterruptExitCode() : 0;
 }
 
 int CmdDemo(int argc, char** argv) {

@@ -10,7 +10,9 @@
 #include <vector>
 
 #include "hal/host/sequence.h"
+#include "tools/ballvision/cli_args.h"
 #include "tools/ballvision/commands.h"
+#include "tools/ballvision/safe_write.h"
 
 namespace bv::cli {
 namespace {
@@ -55,9 +57,9 @@ int ToRaw(const std::string& dir, const std::string& out_dir, size_t first, size
     return 1;
   }
   mkdir(out_dir.c_str(), 0755);
-  std::ofstream csv(out_dir + "/frames.csv");
-  if (!csv) {
-    std::fprintf(stderr, "ballvision seq: cannot write %s/frames.csv\n", out_dir.c_str());
+  SafeOutput csv;
+  if (!csv.Open(out_dir + "/frames.csv", err)) {
+    std::fprintf(stderr, "ballvision seq: %s\n", err.c_str());
     return 1;
   }
   csv << "index,t_us,omni_file,persp_file\n";
@@ -80,15 +82,19 @@ int ToRaw(const std::string& dir, const std::string& out_dir, size_t first, size
         return 1;
       }
       names[c] = std::string(c ? "persp_" : "omni_") + std::to_string(e.index) + ".yuyv";
-      if (!host::SaveYuyv(out_dir + "/" + names[c], buf.data(), w, h, err)) {
+      if (!WriteFileAtomic(out_dir + "/" + names[c], buf, err)) {
         std::fprintf(stderr, "ballvision seq: %s\n", err.c_str());
         return 1;
       }
     }
     csv << e.index << ',' << e.t_us << ',' << names[0] << ',' << names[1] << '\n';
   }
+  if (!csv.Commit(err)) {
+    std::fprintf(stderr, "ballvision seq: %s\n", err.c_str());
+    return 1;
+  }
   std::printf("wrote %zu frames to %s\n", end - first, out_dir.c_str());
-  return csv.good() ? 0 : 1;
+  return 0;
 }
 
 }  // namespace
@@ -102,10 +108,12 @@ int CmdSeq(int argc, char** argv) {
     for (int i = 4; i < argc; ++i) {
       const std::string a = argv[i];
       if ((a == "--first" || a == "--count") && i + 1 < argc) {
-        char* end = nullptr;
-        const unsigned long long v = std::strtoull(argv[++i], &end, 10);
-        if (!end || *end) return SeqUsage();
-        (a == "--first" ? first : count) = static_cast<size_t>(v);
+        std::string e;
+        if (!ArgIntAs(a, argv[++i], a == "--first" ? 0 : 1, INT64_MAX,
+                      a == "--first" ? first : count, e)) {
+          std::fprintf(stderr, "ballvision seq: %s\n", e.c_str());
+          return 2;
+        }
       } else {
         return SeqUsage();
       }

@@ -13,6 +13,8 @@
 
 #include "hal/host/sequence.h"
 #include "tools/ballvision/annotate_frontend.h"
+#include "tools/ballvision/signals.h"
+#include "tools/ballvision/truth_csv.h"
 
 namespace bv::lut {
 
@@ -205,12 +207,6 @@ ColorLut Trainer::Build() const {
 
 // ---------------------------------------------------------------------------------------------
 
-namespace {
-
-float ToF(const std::string& s) { return s.empty() ? 0.0f : std::strtof(s.c_str(), nullptr); }
-
-}  // namespace
-
 void PrintRegions(const BallFinder& finder) {
   const auto regions = finder.regions().regions();
   for (size_t i = 0; i < regions.size(); ++i) {
@@ -224,47 +220,60 @@ void PrintRegions(const BallFinder& finder) {
   }
 }
 
-bool LoadSimTruth(const std::string& dir, std::vector<SimTruth>& out, std::string& error) {
-  std::ifstream in(dir + "/truth.csv");
-  if (!in) {
-    error = dir + "/truth.csv: cannot open";
+namespace {
+
+// One camera's columns of a truth row; empty numeric fields mean "no ball there" (0).
+bool ReadSimCamera(const cli::TruthCsv& csv, size_t i, const std::string& cam, SimTruth& t, int c,
+                   std::string& error) {
+  t.has[c] = !csv.Empty(i, "u_" + cam);
+  const std::string& vis = csv.Text(i, "visible_" + cam);
+  if (vis != "0" && vis != "1") {
+    error = csv.Where(i) + ": column visible_" + cam + ": got '" + vis + "', expected 0 or 1";
     return false;
   }
-  std::string line;
-  std::getline(in, line);
-  const auto header = host::SplitCsvLine(line);
-  std::map<std::string, size_t> col;
-  for (size_t i = 0; i < header.size(); ++i) col[header[i]] = i;
-  const char* cams[2] = {"omni", "persp"};
-  for (const char* need : {"index", "visible_omni", "cu_omni", "bbox_omni", "fullarea_persp"}) {
-    if (!col.count(need)) {
-      error = dir + "/truth.csv: missing column " + need;
-      return false;
+  t.visible[c] = vis == "1";
+  const std::pair<const char*, float*> cols[] = {
+      {"cu_", &t.cu[c]},          {"cv_", &t.cv[c]},
+      {"area_", &t.area[c]},      {"fullarea_", &t.fullarea[c]},
+      {"fullcu_", &t.fullcu[c]},  {"fullcv_", &t.fullcv[c]},
+      {"visfrac_", &t.visfrac[c]}};
+  for (const auto& [prefix, dst] : cols) {
+    double v = 0;
+    if (!csv.Number(i, prefix + cam, v, /*allow_empty=*/true, error)) return false;
+    *dst = static_cast<float>(v);
+  }
+  const std::string& bb = csv.Text(i, "bbox_" + cam);
+  if (bb.empty()) return true;
+  std::istringstream in(bb);
+  std::string rest;
+  for (float& b : t.bbox[c]) in >> b;
+  if (!in || (in >> rest)) {
+    error = csv.Where(i) + ": column bbox_" + cam + ": got '" + bb +
+            "', expected four numbers 'u0 v0 u1 v1'";
+    return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+bool LoadSimTruth(const std::string& dir, std::vector<SimTruth>& out, std::string& error) {
+  std::vector<std::string> need = {"index"};
+  for (const char* cam : {"omni", "persp"}) {
+    for (const char* p : {"u_", "visible_", "cu_", "cv_", "area_", "fullarea_", "fullcu_",
+                          "fullcv_", "visfrac_", "bbox_"}) {
+      need.push_back(std::string(p) + cam);
     }
   }
+  cli::TruthCsv csv;
+  if (!csv.Load(dir + "/truth.csv", need, error)) return false;
   out.clear();
-  while (std::getline(in, line)) {
-    if (line.empty()) continue;
-    const auto f = host::SplitCsvLine(line);
-    if (f.size() < header.size()) {
-      error = dir + "/truth.csv: short row";
-      return false;
-    }
+  for (size_t i = 0; i < csv.rows(); ++i) {
     SimTruth t;
-    t.index = std::strtoll(f[col["index"]].c_str(), nullptr, 10);
-    for (int c = 0; c < 2; ++c) {
-      const std::string s = cams[c];
-      t.has[c] = !f[col["u_" + s]].empty();
-      t.visible[c] = f[col["visible_" + s]] == "1";
-      t.cu[c] = ToF(f[col["cu_" + s]]);
-      t.cv[c] = ToF(f[col["cv_" + s]]);
-      t.area[c] = ToF(f[col["area_" + s]]);
-      t.fullarea[c] = ToF(f[col["fullarea_" + s]]);
-      t.fullcu[c] = ToF(f[col["fullcu_" + s]]);
-      t.fullcv[c] = ToF(f[col["fullcv_" + s]]);
-      t.visfrac[c] = ToF(f[col["visfrac_" + s]]);
-      std::stringstream bb(f[col["bbox_" + s]]);
-      for (float& b : t.bbox[c]) bb >> b;
+    if (!csv.Integer(i, "index", INT64_MIN, INT64_MAX, t.index, error) ||
+        !ReadSimCamera(csv, i, "omni", t, 0, error) ||
+        !ReadSimCamera(csv, i, "persp", t, 1, error)) {
+      return false;
     }
     out.push_back(t);
   }
@@ -276,13 +285,14 @@ int AddSimSequence(Trainer& t, const std::string& dir, Camera cam, int every, in
   host::Sequence seq;
   if (!host::LoadSequence(dir, seq, error)) return -1;
   std::vector<SimTruth> truth;
-  std::string terr;
-  const bool have_truth = LoadSimTruth(dir, truth, terr);
+  if (!LoadSimTruth(dir, truth, error)) return -1;  // without it nothing would be ball
+  const bool have_truth = true;
   std::map<int64_t, const SimTruth*> by_index;
   for (const auto& tr : truth) by_index[tr.index] = &tr;
   const int c = static_cast<int>(cam);
   int used = 0;
   for (const auto& e : seq.entries) {
+    if (cli::InterruptSignal()) break;
     if (every > 1 && static_cast<int>(e.index % every) != phase) continue;
     const std::string& path = cam == Camera::kOmni ? e.omni_path : e.persp_path;
     if (path.empty()) continue;
@@ -335,6 +345,7 @@ bool EvalSim(const std::string& dir, Camera cam, const ColorLut& lut, const Find
   bool have_pred = false;
   Prediction pred;
   for (const auto& e : seq.entries) {
+    if (cli::InterruptSignal()) break;
     if (every > 1 && static_cast<int>(e.index % every) != phase) continue;
     const std::string& path = cam == Camera::kOmni ? e.omni_path : e.persp_path;
     if (path.empty()) continue;

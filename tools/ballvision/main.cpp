@@ -1,4 +1,8 @@
 // ballvision: the host command line. Dispatch only; the commands live in bv_tools_lib.
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
 #include <cstdio>
 #include <cstring>
 
@@ -30,15 +34,30 @@ void Usage(FILE* out) {
   std::fprintf(out, "\n'ballvision COMMAND --help' shows a command's options.\n");
 }
 
+// A closed stdout or a full disk behind it is a failure, not a silent success.
+int FinishStdout(int rc) {
+  if (std::fflush(stdout) != 0 || std::ferror(stdout)) {
+    std::fprintf(stderr, "ballvision: writing to standard output failed: %s\n",
+                 std::strerror(errno));
+    return rc == 0 ? 1 : rc;
+  }
+  return rc;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
+  // With fd 1 closed the next open() would get it and printf would write into an output file.
+  if (fcntl(STDOUT_FILENO, F_GETFD) < 0) {
+    std::fprintf(stderr, "ballvision: standard output is closed\n");
+    return 1;
+  }
   if (argc < 2 || !std::strcmp(argv[1], "--help") || !std::strcmp(argv[1], "-h")) {
     Usage(argc < 2 ? stderr : stdout);
     return argc < 2 ? 2 : 0;
   }
   for (const Command& c : kCommands) {
-    if (!std::strcmp(argv[1], c.name)) return c.fn(argc - 1, argv + 1);
+    if (!std::strcmp(argv[1], c.name)) return FinishStdout(c.fn(argc - 1, argv + 1));
   }
   std::fprintf(stderr, "ballvision: unknown command '%s'\n\n", argv[1]);
   Usage(stderr);

@@ -12,6 +12,7 @@
 
 #include "hal/host/sequence.h"
 #include "tools/ballvision/calib_io.h"
+#include "tools/ballvision/safe_write.h"
 
 namespace bv::cli {
 
@@ -185,10 +186,12 @@ bool PlotPng(const std::string& path, const std::string& title, const std::strin
     legend_y += 20;
   }
   try {
-    if (!cv::imwrite(path, img)) {
-      error = path + ": cannot write PNG";
+    std::vector<uchar> png;
+    if (!cv::imencode(".png", img, png)) {
+      error = path + ": PNG encoding failed";
       return false;
     }
+    if (!WriteFileAtomic(path, png, error)) return false;
   } catch (const cv::Exception& e) {
     error = path + ": " + e.what();
     return false;

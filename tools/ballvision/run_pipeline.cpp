@@ -9,6 +9,7 @@
 #include <memory>
 
 #include "tools/ballvision/annotate_frontend.h"
+#include "tools/ballvision/signals.h"
 
 namespace bv::cli {
 namespace {
@@ -131,6 +132,25 @@ bool AnnotateFrame(const std::string& dir, int64_t index, const FrameInput& in,
   return true;
 }
 
+namespace {
+
+// Every image of a camera must have the sequence's size (its first image's), and persp images
+// the calibration's size: a frame of another size would be measured with the wrong geometry.
+bool CheckFrameSize(const std::string& path, int w, int h, int& want_w, int& want_h,
+                    const char* source, std::string& error) {
+  if (want_w == 0) {
+    want_w = w;
+    want_h = h;
+    return true;
+  }
+  if (w == want_w && h == want_h) return true;
+  error = path + ": image is " + std::to_string(w) + "x" + std::to_string(h) + ", expected " +
+          std::to_string(want_w) + "x" + std::to_string(want_h) + " (" + source + ")";
+  return false;
+}
+
+}  // namespace
+
 bool RunSequence(const host::Sequence& seq, Pipeline& pipeline, const RunSettings& settings,
                  std::vector<FrameRecord>& records, std::string& error) {
   records.clear();
@@ -145,22 +165,33 @@ bool RunSequence(const host::Sequence& seq, Pipeline& pipeline, const RunSetting
     if (!features->Open(settings.features_dir, error)) return false;
   }
   std::vector<uint8_t> omni, persp;
+  int omni_w = 0, omni_h = 0, persp_w = 0, persp_h = 0;
+  const char* persp_source = "the sequence's first persp image";
+  if (pipeline.calibration() && pipeline.calibration()->persp.valid) {
+    persp_w = pipeline.calibration()->persp.width_px;
+    persp_h = pipeline.calibration()->persp.height_px;
+    persp_source = "the calibration's persp image size";
+  }
   const size_t n = seq.entries.size();
   for (size_t i = 0; i < n; ++i) {
+    if (InterruptSignal()) break;  // the caller reports and writes what was processed
     const host::SequenceEntry& e = seq.entries[i];
     FrameInput in;
     in.t_us = e.t_us;
     int w = 0, h = 0;
     std::string err;
     if (!e.omni_path.empty()) {
-      if (!host::LoadYuyv(e.omni_path, omni, w, h, err)) {
+      if (!host::LoadYuyv(e.omni_path, omni, w, h, err) ||
+          !CheckFrameSize(e.omni_path, w, h, omni_w, omni_h, "the sequence's first omni image",
+                          err)) {
         error = err;
         return false;
       }
       in.omni = MakeYuyvImage(omni.data(), w, h);
     }
     if (!e.persp_path.empty()) {
-      if (!host::LoadYuyv(e.persp_path, persp, w, h, err)) {
+      if (!host::LoadYuyv(e.persp_path, persp, w, h, err) ||
+          !CheckFrameSize(e.persp_path, w, h, persp_w, persp_h, persp_source, err)) {
         error = err;
         return false;
       }

@@ -3,13 +3,18 @@ import math
 import struct
 import zlib
 from dataclasses import dataclass
-from typing import Iterator, List, Optional, Tuple
+from typing import List, Optional
 
 VERSION = 1
 MSG_BALL_STATE = 0x01
 MSG_STATUS = 0x02
 HEADER = struct.Struct("<BBHIH")
 MAX_PAYLOAD = 1024
+# Receive limits of core/protocol's Decoder (kMaxRawFrameBytes, kMaxWireFrameBytes): a frame
+# beyond them is refused the same way by both decoders
+# (host_tests/data/protocol_conformance.json).
+MAX_RAW_FRAME = HEADER.size + MAX_PAYLOAD + 4
+MAX_WIRE_FRAME = MAX_RAW_FRAME + MAX_RAW_FRAME // 254 + 2
 
 # Must equal the text in core/protocol/protocol.cpp: the hash guards against layout drift.
 _SCHEMA = (
@@ -156,34 +161,46 @@ def parse_status(seq: int, payload: bytes) -> Optional[StatusReport]:
 class Decoder:
     """Streaming decoder: feed() bytes, get verified messages; corrupt frames are counted."""
 
-    def __init__(self, max_frame: int = 2048):
+    def __init__(self, max_frame: int = MAX_WIRE_FRAME):
         self._buf = bytearray()
         self._overflow = False
         self.max_frame = max_frame
         self.errors = {"crc": 0, "cobs": 0, "oversize": 0, "short": 0, "version": 0,
                        "length": 0, "payload": 0}
         self.frames_ok = 0
+        self.bytes_discarded = 0
 
-    def feed(self, data: bytes) -> Iterator[object]:
+    def feed(self, data: bytes) -> List[object]:
+        """All messages completed by `data`, in order. A list, not a generator: the decoder's
+        state advances whether or not the caller looks at the result, so nothing is lost."""
+        out = []
         for b in data:
             if b != 0:
                 if len(self._buf) < self.max_frame:
                     self._buf.append(b)
-                elif not self._overflow:
+                else:
+                    if not self._overflow:
+                        self.errors["oversize"] += 1
                     self._overflow = True
-                    self.errors["oversize"] += 1
+                    self.bytes_discarded += 1
                 continue
             frame, overflow = bytes(self._buf), self._overflow
             self._buf.clear()
             self._overflow = False
             if overflow or not frame:
                 continue
+            before = self.frames_ok
             msg = self._finish(frame)
+            if self.frames_ok == before:
+                self.bytes_discarded += len(frame)
             if msg is not None:
-                yield msg
+                out.append(msg)
+        return out
 
     def _finish(self, frame: bytes):
         raw = cobs_decode(frame)
+        if raw is not None and len(raw) > MAX_RAW_FRAME:
+            raw = None  # the C++ decoder's buffer is full: counted as a COBS error there too
         if raw is None:
             self.errors["cobs"] += 1
             return None

@@ -18,7 +18,12 @@ def main(argv=None) -> int:
     ap.add_argument("blob")
     ap.add_argument("--baud", type=int, default=921600)
     a = ap.parse_args(argv)
-    import serial  # pyserial (Debian python3-serial)
+    try:
+        import serial  # pyserial (Debian python3-serial)
+    except ImportError:
+        print("ballvision_link.upload: needs pyserial (apt install python3-serial, or pip "
+              "install pyserial)", file=sys.stderr)
+        return 1
     port = serial.Serial(a.port, baudrate=a.baud, timeout=0.1)
     target = commands.TARGET_CALIBRATION if a.target == "calibration" else commands.TARGET_LUT
     dec = Decoder()
