@@ -126,7 +126,6 @@ class Pipeline {
   const PoseEstimate& localisation() const { return localiser_.pose(); }
   const FieldModel& field_model() const { return field_model_; }
   bool features_enabled() const { return features_ready_; }
-  const RigCalibration* calibration() const { return calibration_; }
 
  private:
   BallDetection Detect(BallFinder& finder, const YuyvImage& img, const ImagePrediction& pred);
