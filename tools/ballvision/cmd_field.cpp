@@ -191,8 +191,6 @@ void ScoreLines(const FieldFeatures& ff, const FieldModel& model, const TruthRow
     ToField(t.rx, t.ry, th, ff.lines[i].x_m, ff.lines[i].y_m, fx, fy);
     float gx, gy;
     f.line_d.push_back(model.Distance(static_cast<float>(fx), static_cast<float>(fy), gx, gy));
-      std::fprintf(stderr, "LP %f %f %f %f\n", ff.lines[i].x_m, ff.lines[i].y_m, f.line_d.back(),
-                   ff.lines[i].width_m);
   }
   f.line_points_max = std::max(f.line_points_max, ff.line_count);
   f.sum_line_points += ff.line_count;
