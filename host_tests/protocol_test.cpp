@@ -309,7 +309,7 @@ TEST(Protocol, LinePointsParserRejectsBadPayloads) {
   LinePointsReport r;
   ASSERT_TRUE(ParseLinePoints(good, r).ok());
   EXPECT_FALSE(ParseLinePoints(std::span(good).first(good.size() - 1), r).ok());  // truncated
-  EXPECT_FALSE(ParseLinePoints(std::span(good).first(5), r).ok());  // no header
+  EXPECT_FALSE(ParseLinePoints(std::span(good).first(5), r).ok());                // no header
   auto bad = good;
   bad.insert(bad.end(), {1, 2, 3, 4});  // a point more than the count says
   EXPECT_FALSE(ParseLinePoints(bad, r).ok());
@@ -376,7 +376,7 @@ TEST(Protocol, LinkBudgetFitsAt60Hz) {
   EXPECT_EQ(obstacles, 122u);
   EXPECT_EQ(lines, 285u);
   const size_t per_pair = ball + status + pose + obstacles + lines;
-  const size_t bytes_per_s = 921600 / 10;  // 8N1: 10 bits a byte
+  const size_t bytes_per_s = 921600 / 10;          // 8N1: 10 bits a byte
   EXPECT_LT(per_pair * 60, bytes_per_s * 6 / 10);  // < 60 % of the link at 60 Hz
 }
 

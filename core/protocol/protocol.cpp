@@ -182,10 +182,9 @@ Result<size_t> EncodeStatus(const StatusReport& s, uint32_t seq, std::span<uint8
   w.U8(s.calibration_state);
   w.U8(s.lut_state);
   w.U16(s.reserved);
-  for (uint32_t v :
-       {s.rx_errors, s.command_errors, s.pipeline_errors, s.last_proc_us, s.max_proc_us,
-        s.fault_flags, s.rx_overruns, s.rx_ring_full, s.rx_line_errors,
-        s.feature_packets_dropped, s.line_points_unsent}) {
+  for (uint32_t v : {s.rx_errors, s.command_errors, s.pipeline_errors, s.last_proc_us,
+                     s.max_proc_us, s.fault_flags, s.rx_overruns, s.rx_ring_full, s.rx_line_errors,
+                     s.feature_packets_dropped, s.line_points_unsent}) {
     w.U32(v);
   }
   if (w.size() != kStatusPayloadBytes) return Status(StatusCode::kInternal, "status payload size");
@@ -207,10 +206,12 @@ Status ParseStatus(std::span<const uint8_t> payload, StatusReport& out) {
   s.calibration_state = r.U8();
   s.lut_state = r.U8();
   s.reserved = r.U16();
-  uint32_t* tail[] = {&s.rx_errors,    &s.command_errors, &s.pipeline_errors,
-                      &s.last_proc_us, &s.max_proc_us,    &s.fault_flags,
-                      &s.rx_overruns,  &s.rx_ring_full,   &s.rx_line_errors,
-                      &s.feature_packets_dropped, &s.line_points_unsent};
+  uint32_t* tail[] = {&s.rx_errors,         &s.command_errors,
+                      &s.pipeline_errors,   &s.last_proc_us,
+                      &s.max_proc_us,       &s.fault_flags,
+                      &s.rx_overruns,       &s.rx_ring_full,
+                      &s.rx_line_errors,    &s.feature_packets_dropped,
+                      &s.line_points_unsent};
   for (uint32_t* f : tail) *f = r.U32();
   if (s.calibration_state > 2 || s.lut_state > 2) {
     return Status(StatusCode::kInvalidArgument, "status: unknown blob state");
@@ -230,8 +231,8 @@ Result<size_t> EncodePose(const PoseEstimate& e, uint64_t t_us, uint32_t seq,
                             (e.usable() ? kPoseUsable : 0)));
   w.U16(e.points_used);
   w.U16(e.inliers);
-  for (float v : {e.x_m, e.y_m, e.heading_rad, e.sigma_x_m, e.sigma_y_m, e.sigma_heading_rad,
-                  e.quality}) {
+  for (float v :
+       {e.x_m, e.y_m, e.heading_rad, e.sigma_x_m, e.sigma_y_m, e.sigma_heading_rad, e.quality}) {
     w.F32(v);
   }
   if (w.size() != kPosePayloadBytes) return Status(StatusCode::kInternal, "pose payload size");
@@ -249,8 +250,8 @@ Status ParsePose(std::span<const uint8_t> payload, PoseReport& out) {
   const uint8_t flags = r.U8();
   s.points_used = r.U16();
   s.inliers = r.U16();
-  float* f[] = {&s.x_m,       &s.y_m,       &s.heading_rad,      &s.sigma_x_m,
-                &s.sigma_y_m, &s.sigma_heading_rad, &s.quality};
+  float* f[] = {&s.x_m,    &s.y_m, &s.heading_rad, &s.sigma_x_m, &s.sigma_y_m, &s.sigma_heading_rad,
+                &s.quality};
   for (float* v : f) *v = r.F32();
   if (s.state > PoseEstimate::kCoasting) return Status(StatusCode::kInvalidArgument, "pose: state");
   if (flags & ~(kPoseAmbiguous | kPoseHintRejected | kPoseUsable)) {
