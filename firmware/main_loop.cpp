@@ -255,10 +255,12 @@ bool MainLoop::SendLowPriority(const Result<size_t>& encoded) {
 }
 
 // After the ball state, one packet at a time through packet_ (no extra buffer); most useful
-// first, so under backpressure the large line-point packet is the one that goes.
-void MainLoop::SendFieldPackets(uint64_t exposure_us) {
+// first, so under backpressure the large line-point packet is the one that goes. Without an
+// omni image the pipeline keeps the previous features: they are not sent again as new.
+void MainLoop::SendFieldPackets(uint64_t exposure_us, bool omni_seen) {
   if (!pipeline_ready_ || !config_.pipeline.field_features) return;
   SendLowPriority(protocol::EncodePose(pipeline_.localisation(), exposure_us, seq_++, packet_));
+  if (!omni_seen) return;
   const FieldFeatures& f = pipeline_.features();
   SendLowPriority(protocol::EncodeObstacles(f, exposure_us, seq_++, packet_));
   size_t sent = 0;
@@ -366,7 +368,7 @@ bool MainLoop::Poll() {
     ++status_.pipeline_errors;  // e.g. a NaN the encoder refuses; the stream stays valid
   }
   camera_.Release(pair);
-  SendFieldPackets(pair.exposure_us);
+  SendFieldPackets(pair.exposure_us, in.omni.valid());
 
   const uint64_t total_us = clock_.NowUs() - start_us;
   status_.last_proc_us = static_cast<uint32_t>(total_us > UINT32_MAX ? UINT32_MAX : total_us);

@@ -117,7 +117,7 @@ class MainLoop {
   /// Queues a pose / line / obstacle packet only if kTxReserveBytes stay free; false (and
   /// counted) otherwise.
   bool SendLowPriority(const Result<size_t>& encoded);
-  void SendFieldPackets(uint64_t exposure_us);
+  void SendFieldPackets(uint64_t exposure_us, bool omni_seen);
   void PollCommands();
   void InitPipeline();
 

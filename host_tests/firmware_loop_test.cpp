@@ -421,6 +421,7 @@ std::vector<StreamEntry> Stream(std::span<const uint8_t> bytes, uint32_t& decode
 TEST_F(MainLoopTest, PoseObstaclesAndLinePointsFollowEachBallState) {
   InstallDemoBlobs();
   camera_.AddRegular(6, 33333);
+  camera_.Add({6 * 33333, hal::kPairOmniMissing, 0});  // no new features: ball and pose only
   Run();
   ASSERT_TRUE(loop_->pipeline_ready());
   uint32_t errors = 0;
@@ -430,7 +431,7 @@ TEST_F(MainLoopTest, PoseObstaclesAndLinePointsFollowEachBallState) {
   EXPECT_EQ(errors, 0u);
   EXPECT_EQ(bad, 0);
   // boot status, then per pair: ball, pose, obstacles, lines (same exposure), then final status.
-  ASSERT_EQ(stream.size(), 1u + 6 * 4 + 1);
+  ASSERT_EQ(stream.size(), 1u + 6 * 4 + 2 + 1);
   const protocol::MsgType order[4] = {protocol::MsgType::kBallState, protocol::MsgType::kPose,
                                       protocol::MsgType::kObstacles,
                                       protocol::MsgType::kLinePoints};
@@ -441,8 +442,12 @@ TEST_F(MainLoopTest, PoseObstaclesAndLinePointsFollowEachBallState) {
       EXPECT_EQ(e.t_us, static_cast<uint64_t>(pair) * 33333) << "pair " << pair;
     }
   }
+  EXPECT_EQ(stream[25].type, protocol::MsgType::kBallState);
+  EXPECT_EQ(stream[26].type, protocol::MsgType::kPose);
+  EXPECT_EQ(stream[26].t_us, 6u * 33333);
+  EXPECT_EQ(stream[27].type, protocol::MsgType::kStatus);
   for (size_t i = 0; i < stream.size(); ++i) EXPECT_EQ(stream[i].seq, i);
-  EXPECT_EQ(loop_->feature_packets_sent(), 18u);
+  EXPECT_EQ(loop_->feature_packets_sent(), 19u);
   EXPECT_EQ(last.feature_packets_dropped, 0u);
   EXPECT_EQ(last.packets_dropped, 0u);
 }
