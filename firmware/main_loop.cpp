@@ -204,6 +204,15 @@ Status MainLoop::Params::SetParam(uint16_t id, float value) {
   }
 }
 
+Status MainLoop::Hints::SetRobotPose(bool known, float x_m, float y_m, float heading_rad) {
+  RobotPose pose;
+  pose.known = known;
+  pose.x_m = x_m;
+  pose.y_m = y_m;
+  pose.heading_rad = heading_rad;
+  return loop_.pipeline_.SetRobotPose(pose);
+}
+
 void MainLoop::PollCommands() {
   // Drains what the receive ring holds (bounded, so a flood cannot starve the frame loop).
   // Read() stops at each delimiter, so the frame's arrival stamp is at hand for clock sync.
@@ -229,6 +238,36 @@ void MainLoop::PollCommands() {
 
 void MainLoop::Send(std::span<const uint8_t> frame) {
   if (!uart_.Write(frame).ok()) ++status_.packets_dropped;
+}
+
+bool MainLoop::SendLowPriority(const Result<size_t>& encoded) {
+  if (!encoded.ok()) {
+    ++status_.pipeline_errors;
+    return false;
+  }
+  const std::span<const uint8_t> frame(packet_, *encoded);
+  if (uart_.WriteSpace() < frame.size() + kTxReserveBytes || !uart_.Write(frame).ok()) {
+    ++status_.feature_packets_dropped;
+    return false;
+  }
+  ++feature_packets_sent_;
+  return true;
+}
+
+// After the ball state, one packet at a time through packet_ (no extra buffer); most useful
+// first, so under backpressure the large line-point packet is the one that goes. Without an
+// omni image the pipeline keeps the previous features: they are not sent again as new.
+void MainLoop::SendFieldPackets(uint64_t exposure_us, bool omni_seen) {
+  if (!pipeline_ready_ || !config_.pipeline.field_features) return;
+  SendLowPriority(protocol::EncodePose(pipeline_.localisation(), exposure_us, seq_++, packet_));
+  if (!omni_seen) return;
+  const FieldFeatures& f = pipeline_.features();
+  SendLowPriority(protocol::EncodeObstacles(f, exposure_us, seq_++, packet_));
+  size_t sent = 0;
+  if (SendLowPriority(protocol::EncodeLinePoints(f, exposure_us, seq_++, packet_, sent))) {
+    const size_t found = static_cast<size_t>(f.line_count > 0 ? f.line_count : 0) + f.lines_dropped;
+    status_.line_points_unsent += static_cast<uint32_t>(found - sent);
+  }
 }
 
 void MainLoop::SendStatus() {
@@ -329,6 +368,7 @@ bool MainLoop::Poll() {
     ++status_.pipeline_errors;  // e.g. a NaN the encoder refuses; the stream stays valid
   }
   camera_.Release(pair);
+  SendFieldPackets(pair.exposure_us, in.omni.valid());
 
   const uint64_t total_us = clock_.NowUs() - start_us;
   status_.last_proc_us = static_cast<uint32_t>(total_us > UINT32_MAX ? UINT32_MAX : total_us);

@@ -1,6 +1,7 @@
 #pragma once
 // The board-independent firmware: init (blobs from storage, camera start) and the frame loop
 //   acquire newest pair -> pipeline -> ball-state packet -> UART -> release
+//   -> pose, obstacle and line-point packets (lower priority: dropped first)
 // with deadline accounting and a status packet at least once per second. Never allocates and
 // never blocks: a missing camera pair is polled again, a full UART drops (and counts) a packet.
 #include <cstddef>
@@ -32,6 +33,13 @@ inline constexpr size_t kUploadBufferBytes = 2 * kBlobScratchBytes;
 /// Received bytes decoded per Poll() at most: a full receive ring (2 KB), so commands keep up
 /// with the line while a flood cannot hold up the frame loop.
 inline constexpr size_t kMaxRxBytesPerPoll = 2048;
+
+/// TX ring bytes the field-feature packets (pose, obstacles, line points) leave free: room for
+/// the next pair's ball state and a status packet, so a backlog of low-priority packets can
+/// never make the loop drop those.
+inline constexpr size_t kTxReserveBytes =
+    protocol::WireFrameBytes(protocol::kBallStatePayloadBytes) +
+    protocol::WireFrameBytes(protocol::kStatusPayloadBytes);
 
 /// Parameters the main computer may set (protocol kSetParam).
 enum ParamId : uint16_t {
@@ -94,6 +102,7 @@ class MainLoop {
   const protocol::StatusReport& status() const { return status_; }
   uint32_t ball_packets_sent() const { return ball_packets_sent_; }
   uint32_t status_packets_sent() const { return status_packets_sent_; }
+  uint32_t feature_packets_sent() const { return feature_packets_sent_; }
   bool pipeline_ready() const { return pipeline_ready_; }
   const Pipeline& pipeline() const { return pipeline_; }
 
@@ -105,6 +114,10 @@ class MainLoop {
   protocol::BlobState ReadSlotPair(const int (&slots)[2], BlobKind kind, uint16_t max_version,
                                    std::span<const uint8_t>& blob);
   void Send(std::span<const uint8_t> frame);
+  /// Queues a pose / line / obstacle packet only if kTxReserveBytes stay free; false (and
+  /// counted) otherwise.
+  bool SendLowPriority(const Result<size_t>& encoded);
+  void SendFieldPackets(uint64_t exposure_us, bool omni_seen);
   void PollCommands();
   void InitPipeline();
 
@@ -131,6 +144,19 @@ class MainLoop {
    private:
     MainLoop& loop_;
   };
+  // Localisation hints from the main computer (protocol kSetFieldHalf, kOdometry, kSetPose).
+  class Hints : public protocol::PoseSink {
+   public:
+    explicit Hints(MainLoop& loop) : loop_(loop) {}
+    Status SetFieldHalf(int8_t half) override { return loop_.pipeline_.SetFieldHalf(half); }
+    Status SetOdometry(float dx_m, float dy_m, float dheading_rad) override {
+      return loop_.pipeline_.SetOdometry(dx_m, dy_m, dheading_rad);
+    }
+    Status SetRobotPose(bool known, float x_m, float y_m, float heading_rad) override;
+
+   private:
+    MainLoop& loop_;
+  };
   void CountPairFlags(const hal::FramePair& pair);
   void MaybeSendStatus(uint64_t exposure_us);
 
@@ -151,6 +177,7 @@ class MainLoop {
   uint32_t seq_ = 0;
   uint32_t ball_packets_sent_ = 0;
   uint32_t status_packets_sent_ = 0;
+  uint32_t feature_packets_sent_ = 0;
   // Status cadence and frame rate: the pairs since the last status packet.
   uint32_t interval_pairs_ = 0;
   uint64_t interval_first_exposure_us_ = 0;
@@ -161,8 +188,9 @@ class MainLoop {
   uint8_t packet_[protocol::kMaxWireFrameBytes] = {};
   Uploads uploads_{*this};
   Params params_{*this};
+  Hints hints_{*this};
   protocol::Decoder rx_;
-  protocol::CommandHandler commands_{uploads_, params_};
+  protocol::CommandHandler commands_{uploads_, params_, &hints_};
 };
 
 }  // namespace bv::fw

@@ -47,6 +47,12 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     bv::protocol::StatusReport st;
     (void)bv::protocol::ParseBallState(frame.payload, s).ok();
     (void)bv::protocol::ParseStatus(frame.payload, st).ok();
+    bv::protocol::PoseReport pose;
+    bv::protocol::LinePointsReport lines;
+    bv::protocol::ObstaclesReport obstacles;
+    (void)bv::protocol::ParsePose(frame.payload, pose).ok();
+    (void)bv::protocol::ParseLinePoints(frame.payload, lines).ok();
+    (void)bv::protocol::ParseObstacles(frame.payload, obstacles).ok();
     size_t reply_len = 0;
     handler.Handle(frame, 0, reply, reply_len);
   }

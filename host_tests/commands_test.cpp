@@ -165,3 +165,125 @@ TEST_F(CommandsTest, RandomCommandsNeverCorruptActiveData) {
 
 }  // namespace
 }  // namespace bv::protocol
+
+namespace bv::protocol {
+namespace {
+
+// Records what reached it; refuses nothing (the handler's checks are under test).
+class PoseRecorder : public PoseSink {
+ public:
+  int calls = 0;
+  int8_t half = 7;
+  float odo[3] = {};
+  bool known = false;
+  float pose[3] = {};
+  Status SetFieldHalf(int8_t h) override {
+    ++calls;
+    half = h;
+    return Status();
+  }
+  Status SetOdometry(float dx, float dy, float dh) override {
+    ++calls;
+    odo[0] = dx, odo[1] = dy, odo[2] = dh;
+    return Status();
+  }
+  Status SetRobotPose(bool k, float x, float y, float h) override {
+    ++calls;
+    known = k, pose[0] = x, pose[1] = y, pose[2] = h;
+    return Status();
+  }
+};
+
+class PoseCommandsTest : public CommandsTest {
+ protected:
+  Reply Half(int8_t h) {
+    const uint8_t p[1] = {static_cast<uint8_t>(h)};
+    return Send2(MsgType::kSetFieldHalf, p);
+  }
+  Reply Odometry(float dx, float dy, float dh) {
+    uint8_t p[12];
+    ByteWriter w(p);
+    w.F32(dx), w.F32(dy), w.F32(dh);
+    return Send2(MsgType::kOdometry, p);
+  }
+  Reply Pose(uint8_t known, float x, float y, float h) {
+    uint8_t p[13];
+    ByteWriter w(p);
+    w.U8(known), w.F32(x), w.F32(y), w.F32(h);
+    return Send2(MsgType::kSetPose, p);
+  }
+  Reply Send2(MsgType type, std::span<const uint8_t> payload) {
+    FrameView f{type, 1, payload};
+    std::array<uint8_t, kMaxWireFrameBytes> reply{};
+    size_t len = 0;
+    pose_handler_.Handle(f, 0, reply, len);
+    Decoder d;
+    FrameView r;
+    bool got = false;
+    for (size_t i = 0; i < len; ++i) got |= d.Push(reply[i], r);
+    EXPECT_TRUE(got);
+    Reply out{r.type, CommandError::kNone};
+    if (r.type == MsgType::kError) out.error = static_cast<CommandError>(r.payload[5]);
+    return out;
+  }
+  PoseRecorder rec_;
+  CommandHandler pose_handler_{sink_, params_, &rec_};
+};
+
+TEST_F(PoseCommandsTest, ValidHintsReachTheSinkAndAreAcked) {
+  EXPECT_EQ(Half(-1).type, MsgType::kAck);
+  EXPECT_EQ(rec_.half, -1);
+  EXPECT_EQ(Half(0).type, MsgType::kAck);
+  EXPECT_EQ(rec_.half, 0);
+  EXPECT_EQ(Odometry(0.1f, -0.05f, 0.02f).type, MsgType::kAck);
+  EXPECT_EQ(rec_.odo[0], 0.1f);
+  EXPECT_EQ(rec_.odo[1], -0.05f);
+  EXPECT_EQ(rec_.odo[2], 0.02f);
+  EXPECT_EQ(Pose(1, 3.0f, -2.0f, 1.5f).type, MsgType::kAck);
+  EXPECT_TRUE(rec_.known);
+  EXPECT_EQ(rec_.pose[0], 3.0f);
+  EXPECT_EQ(rec_.pose[1], -2.0f);
+  EXPECT_EQ(rec_.pose[2], 1.5f);
+  EXPECT_EQ(Pose(0, 0, 0, 0).type, MsgType::kAck);
+  EXPECT_FALSE(rec_.known);
+  EXPECT_EQ(rec_.calls, 5);
+}
+
+TEST_F(PoseCommandsTest, BadHintsAreRefusedAndNothingChanges) {
+  ASSERT_EQ(Half(1).type, MsgType::kAck);
+  ASSERT_EQ(rec_.calls, 1);
+  for (int8_t h : {int8_t{2}, int8_t{-2}, int8_t{127}, int8_t{-128}}) {
+    const Reply r = Half(h);
+    EXPECT_EQ(r.type, MsgType::kError);
+    EXPECT_EQ(r.error, CommandError::kBadValue);
+  }
+  EXPECT_EQ(rec_.half, 1);
+  EXPECT_EQ(Odometry(NAN, 0, 0).error, CommandError::kBadValue);
+  EXPECT_EQ(Odometry(0, INFINITY, 0).error, CommandError::kBadValue);
+  EXPECT_EQ(Odometry(0, 0, 3.3f).error, CommandError::kBadValue);
+  EXPECT_EQ(Odometry(2.5f, 0, 0).error, CommandError::kBadValue);
+  EXPECT_EQ(Pose(1, NAN, 0, 0).error, CommandError::kBadValue);
+  EXPECT_EQ(Pose(1, 0, 21.0f, 0).error, CommandError::kBadValue);
+  EXPECT_EQ(Pose(1, 0, 0, -11.0f).error, CommandError::kBadValue);
+  EXPECT_EQ(Pose(2, 0, 0, 0).error, CommandError::kBadValue);  // known must be 0/1
+  // Wrong lengths (truncated, oversize).
+  const uint8_t two[2] = {1, 0};
+  EXPECT_EQ(Send2(MsgType::kSetFieldHalf, two).error, CommandError::kBadLength);
+  EXPECT_EQ(Send2(MsgType::kSetFieldHalf, {}).error, CommandError::kBadLength);
+  const uint8_t eleven[11] = {};
+  EXPECT_EQ(Send2(MsgType::kOdometry, eleven).error, CommandError::kBadLength);
+  const uint8_t fourteen[14] = {};
+  EXPECT_EQ(Send2(MsgType::kSetPose, fourteen).error, CommandError::kBadLength);
+  EXPECT_EQ(rec_.calls, 1);  // nothing after the first ack reached the sink
+  EXPECT_EQ(pose_handler_.errors(), 16u);
+}
+
+TEST_F(CommandsTest, PoseCommandsWithoutASinkAreUnknown) {
+  const uint8_t p[1] = {1};
+  const Reply r = Send(MsgType::kSetFieldHalf, p);
+  EXPECT_EQ(r.type, MsgType::kError);
+  EXPECT_EQ(r.error, CommandError::kUnknownCommand);
+}
+
+}  // namespace
+}  // namespace bv::protocol

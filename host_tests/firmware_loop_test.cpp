@@ -70,6 +70,10 @@ class FakeUart : public hal::Uart {
   std::span<const uint8_t> bytes() const { return {buf_.data(), size_}; }
   bool full = false;  // simulates a transmit buffer without room
   uint32_t refused = 0;
+  // A TX ring of `ring` bytes that the line empties by Drain() (default: unlimited).
+  size_t ring = SIZE_MAX;
+  size_t queued = 0;
+  void Drain(size_t n) { queued -= std::min(n, queued); }
   /// Queues bytes "received from the main computer".
   void Feed(std::span<const uint8_t> b) {
     ASSERT_LE(rx_len_ + b.size(), rx_.size());
@@ -81,15 +85,19 @@ class FakeUart : public hal::Uart {
 
  private:
   Status DoWrite(std::span<const uint8_t> b) override {
-    if (full || b.size() > kCapacity - size_) {
+    if (full || b.size() > kCapacity - size_ || b.size() > DoWriteSpace()) {
       ++refused;
       return Status(StatusCode::kUnavailable, "full");
     }
     std::memcpy(buf_.data() + size_, b.data(), b.size());
     size_ += b.size();
+    queued += b.size();
     return Status();
   }
-  size_t DoWriteSpace() const override { return full ? 0 : kCapacity - size_; }
+  size_t DoWriteSpace() const override {
+    if (full) return 0;
+    return std::min(kCapacity - size_, ring == SIZE_MAX ? SIZE_MAX : ring - queued);
+  }
   hal::UartRxStats DoRxStats() const override { return rx_stats; }
   Result<size_t> DoRead(std::span<uint8_t> out) override {
     const size_t n = std::min(out.size(), rx_len_ - rx_pos_);
@@ -185,6 +193,22 @@ class MainLoopTest : public ::testing::Test {
     loop_ = std::make_unique<MainLoop>(camera_, uart_, clock_, storage_, scratch_, config);
     init_ = loop_->Init();
     loop_->RunUntilFinished();
+  }
+  // A valid demo calibration and the rule LUT in storage: the pipeline runs (field features on).
+  void InstallDemoBlobs() {
+    static ColorLut lut;
+    cli::FillRuleLut(lut);
+    RigCalibration cal = cli::MakeDemoCalibration();
+    cal.lut_id = lut.Id();
+    static uint8_t blob[kColorLutBlobBytes];
+    const Result<size_t> cal_bytes = SerializeCalibration(cal, blob);
+    ASSERT_TRUE(cal_bytes.ok()) << cal_bytes.status().message();
+    hal::BlobStore cal_store(storage_, 0, 1, BlobKind::kCalibration, kCalibrationBlobVersion);
+    ASSERT_TRUE(cal_store.Save(std::span<const uint8_t>(blob, *cal_bytes), scratch_).ok());
+    const Result<size_t> lut_bytes = SerializeLut(lut, blob);
+    ASSERT_TRUE(lut_bytes.ok());
+    hal::BlobStore lut_store(storage_, 2, 3, BlobKind::kColorLut, kColorLutBlobVersion);
+    ASSERT_TRUE(lut_store.Save(std::span<const uint8_t>(blob, *lut_bytes), scratch_).ok());
   }
   FakeCamera camera_;
   FakeUart<64 * 1024> uart_;
@@ -349,6 +373,121 @@ TEST_F(MainLoopTest, FullUartDropsWholePacketsAndCountsThem) {
   EXPECT_EQ(dec.stats().errors(), 0u) << "no partial packet ever reached the stream";
   EXPECT_EQ(balls, 4);
   EXPECT_EQ(gaps, 1u) << "the receiver sees the drop as one sequence gap";
+}
+
+// Per pair in transmission order: the packet types and their exposure times.
+struct StreamEntry {
+  protocol::MsgType type;
+  uint64_t t_us;
+  uint32_t seq;
+};
+
+std::vector<StreamEntry> Stream(std::span<const uint8_t> bytes, uint32_t& decoder_errors,
+                                protocol::StatusReport& last_status, int& bad_payloads) {
+  std::vector<StreamEntry> out;
+  protocol::Decoder dec;
+  protocol::FrameView f;
+  bad_payloads = 0;
+  for (uint8_t b : bytes) {
+    if (!dec.Push(b, f)) continue;
+    uint64_t t = 0;
+    bool ok = true;
+    if (f.type == protocol::MsgType::kBallState) {
+      BallState s;
+      ok = protocol::ParseBallState(f.payload, s).ok();
+      t = s.t_us;
+    } else if (f.type == protocol::MsgType::kPose) {
+      protocol::PoseReport p;
+      ok = protocol::ParsePose(f.payload, p).ok();
+      t = p.t_us;
+    } else if (f.type == protocol::MsgType::kLinePoints) {
+      protocol::LinePointsReport l;
+      ok = protocol::ParseLinePoints(f.payload, l).ok();
+      t = l.t_us;
+    } else if (f.type == protocol::MsgType::kObstacles) {
+      protocol::ObstaclesReport o;
+      ok = protocol::ParseObstacles(f.payload, o).ok();
+      t = o.t_us;
+    } else if (f.type == protocol::MsgType::kStatus) {
+      ok = protocol::ParseStatus(f.payload, last_status).ok();
+    }
+    bad_payloads += ok ? 0 : 1;
+    out.push_back({f.type, t, f.seq});
+  }
+  decoder_errors = dec.stats().errors();
+  return out;
+}
+
+TEST_F(MainLoopTest, PoseObstaclesAndLinePointsFollowEachBallState) {
+  InstallDemoBlobs();
+  camera_.AddRegular(6, 33333);
+  camera_.Add({6 * 33333, hal::kPairOmniMissing, 0});  // no new features: ball and pose only
+  Run();
+  ASSERT_TRUE(loop_->pipeline_ready());
+  uint32_t errors = 0;
+  int bad = 0;
+  protocol::StatusReport last;
+  const auto stream = Stream(uart_.bytes(), errors, last, bad);
+  EXPECT_EQ(errors, 0u);
+  EXPECT_EQ(bad, 0);
+  // boot status, then per pair: ball, pose, obstacles, lines (same exposure), then final status.
+  ASSERT_EQ(stream.size(), 1u + 6 * 4 + 2 + 1);
+  const protocol::MsgType order[4] = {protocol::MsgType::kBallState, protocol::MsgType::kPose,
+                                      protocol::MsgType::kObstacles,
+                                      protocol::MsgType::kLinePoints};
+  for (int pair = 0; pair < 6; ++pair) {
+    for (int k = 0; k < 4; ++k) {
+      const StreamEntry& e = stream[1 + 4 * pair + k];
+      EXPECT_EQ(e.type, order[k]) << "pair " << pair << " packet " << k;
+      EXPECT_EQ(e.t_us, static_cast<uint64_t>(pair) * 33333) << "pair " << pair;
+    }
+  }
+  EXPECT_EQ(stream[25].type, protocol::MsgType::kBallState);
+  EXPECT_EQ(stream[26].type, protocol::MsgType::kPose);
+  EXPECT_EQ(stream[26].t_us, 6u * 33333);
+  EXPECT_EQ(stream[27].type, protocol::MsgType::kStatus);
+  for (size_t i = 0; i < stream.size(); ++i) EXPECT_EQ(stream[i].seq, i);
+  EXPECT_EQ(loop_->feature_packets_sent(), 19u);
+  EXPECT_EQ(last.feature_packets_dropped, 0u);
+  EXPECT_EQ(last.packets_dropped, 0u);
+}
+
+// A link slower than the stream (150 bytes per frame period into a 1 KB ring): the field
+// packets back up and are dropped, the ball state never is, and it leads each pair's packets.
+TEST_F(MainLoopTest, UnderBackpressureBallStatesGoOutFirstAndFeaturesAreDropped) {
+  InstallDemoBlobs();
+  const int kPairs = 60;
+  camera_.AddRegular(kPairs, 33333);
+  uart_.ring = 1024;
+  loop_ = std::make_unique<MainLoop>(camera_, uart_, clock_, storage_, scratch_);
+  ASSERT_TRUE(loop_->Init().ok());
+  ASSERT_TRUE(loop_->pipeline_ready());
+  while (!camera_.Finished()) {
+    if (loop_->Poll()) uart_.Drain(150);
+  }
+  uint32_t errors = 0;
+  int bad = 0;
+  protocol::StatusReport last;
+  const auto stream = Stream(uart_.bytes(), errors, last, bad);
+  EXPECT_EQ(errors, 0u);
+  EXPECT_EQ(bad, 0);
+  int balls = 0, field = 0;
+  uint64_t last_ball_t = UINT64_MAX;
+  for (const StreamEntry& e : stream) {
+    if (e.type == protocol::MsgType::kBallState) {
+      ++balls;
+      last_ball_t = e.t_us;
+    } else if (e.type != protocol::MsgType::kStatus) {
+      ++field;
+      EXPECT_EQ(e.t_us, last_ball_t) << "a field packet before its pair's ball state";
+    }
+  }
+  EXPECT_EQ(balls, kPairs) << "every ball state went out";
+  EXPECT_EQ(loop_->status().packets_dropped, 0u);
+  EXPECT_GT(loop_->status().feature_packets_dropped, 0u);
+  EXPECT_GT(field, 0);
+  EXPECT_EQ(static_cast<uint32_t>(field) + loop_->status().feature_packets_dropped, 3u * kPairs);
+  EXPECT_EQ(static_cast<uint32_t>(field), loop_->feature_packets_sent());
 }
 
 // --- commands from the main computer ---
@@ -526,6 +665,46 @@ TEST_F(MainLoopCommandsTest, ReceiveLossesAreReportedAndOnePollDrainsAnUpload) {
   EXPECT_EQ(last.rx_overruns, 3u);
   EXPECT_EQ(last.rx_ring_full, 5u);
   EXPECT_EQ(last.rx_line_errors, 7u);
+}
+
+TEST_F(MainLoopCommandsTest, FieldHalfOdometryAndPoseCommands) {
+  Start();
+  const int8_t half = -1;
+  Command(protocol::MsgType::kSetFieldHalf,
+          std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(&half), 1));
+  uint8_t odo[12];
+  ByteWriter w(odo);
+  w.F32(0.05f), w.F32(0.1f), w.F32(-0.01f);
+  Command(protocol::MsgType::kOdometry, odo);
+  uint8_t pose[13];
+  ByteWriter pw(pose);
+  pw.U8(1), pw.F32(-3.0f), pw.F32(2.0f), pw.F32(0.25f);
+  Command(protocol::MsgType::kSetPose, pose);
+  Drain();
+  EXPECT_TRUE(loop_->pipeline().robot_pose().known);
+  EXPECT_EQ(loop_->pipeline().robot_pose().x_m, -3.0f);
+  EXPECT_EQ(loop_->pipeline().robot_pose().y_m, 2.0f);
+  EXPECT_EQ(loop_->pipeline().robot_pose().heading_rad, 0.25f);
+  // Refused: a half of 2, NaN odometry, a pose 30 m away. The pose stays as it was.
+  const int8_t bad_half = 2;
+  Command(protocol::MsgType::kSetFieldHalf,
+          std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(&bad_half), 1));
+  ByteWriter w2(odo);
+  w2.F32(NAN), w2.F32(0), w2.F32(0);
+  Command(protocol::MsgType::kOdometry, odo);
+  ByteWriter pw2(pose);
+  pw2.U8(1), pw2.F32(30.0f), pw2.F32(0), pw2.F32(0);
+  Command(protocol::MsgType::kSetPose, pose);
+  Drain();
+  EXPECT_EQ(loop_->pipeline().robot_pose().x_m, -3.0f);
+  int acks, errors, statuses;
+  uint8_t code = 0;
+  Replies(acks, errors, statuses, code);
+  EXPECT_EQ(acks, 3);
+  EXPECT_EQ(errors, 3);
+  EXPECT_EQ(code, static_cast<uint8_t>(protocol::CommandError::kBadValue));
+  loop_->SendStatus();
+  EXPECT_EQ(loop_->status().command_errors, 3u);
 }
 
 TEST_F(MainLoopCommandsTest, RobotPoseParametersReachThePipeline) {

@@ -28,6 +28,54 @@ BallState SampleState(uint64_t t) {
   return s;
 }
 
+// Pose and features with exactly representable values (mm, binary fractions).
+PoseEstimate SamplePose() {
+  PoseEstimate e;
+  e.state = PoseEstimate::kTracking;
+  e.x_m = 1.5f, e.y_m = -2.25f, e.heading_rad = 0.5f;
+  e.sigma_x_m = 0.0625f, e.sigma_y_m = 0.125f, e.sigma_heading_rad = 0.03125f;
+  e.quality = 0.75f;
+  e.ambiguous = true;
+  e.hint_rejected = false;
+  e.points_used = 40;
+  e.inliers = 33;
+  return e;
+}
+
+FieldFeatures SampleFeatures(int lines, int obstacles) {
+  FieldFeatures f;
+  for (int i = 0; i < lines; ++i) {
+    f.lines[i].x_m = -1.0f + 0.25f * static_cast<float>(i);
+    f.lines[i].y_m = 2.0f - 0.125f * static_cast<float>(i);
+    f.lines[i].ray = static_cast<uint8_t>(i);
+  }
+  f.line_count = lines;
+  for (int i = 0; i < obstacles; ++i) {
+    f.obstacles[i].x_m = 1.0f + static_cast<float>(i);
+    f.obstacles[i].y_m = -0.5f * static_cast<float>(i + 1);
+    f.obstacles[i].radius_m = 0.25f;
+  }
+  f.obstacle_count = obstacles;
+  return f;
+}
+
+// Encodes and decodes one frame; returns its payload (copied).
+std::vector<uint8_t> Roundtrip(std::span<const uint8_t> wire, MsgType type, uint32_t seq) {
+  Decoder d;
+  FrameView f;
+  int frames = 0;
+  std::vector<uint8_t> payload;
+  for (uint8_t b : wire) {
+    if (!d.Push(b, f)) continue;
+    ++frames;
+    EXPECT_EQ(f.type, type);
+    EXPECT_EQ(f.seq, seq);
+    payload.assign(f.payload.begin(), f.payload.end());
+  }
+  EXPECT_EQ(frames, 1);
+  return payload;
+}
+
 std::vector<uint8_t> Encode(const BallState& s, uint32_t seq) {
   std::vector<uint8_t> out(kMaxWireFrameBytes);
   auto n = EncodeBallState(s, seq, out);
@@ -131,6 +179,207 @@ TEST(Protocol, RejectsNaNAndBadLengths) {
             StatusCode::kResourceExhausted);
 }
 
+TEST(Protocol, PoseRoundTrip) {
+  std::vector<uint8_t> out(kMaxWireFrameBytes);
+  PoseEstimate e = SamplePose();
+  e.hint_rejected = true;
+  auto n = EncodePose(e, 777, 3, out);
+  ASSERT_TRUE(n.ok());
+  EXPECT_LE(*n, WireFrameBytes(kPosePayloadBytes));
+  const auto p = Roundtrip({out.data(), *n}, MsgType::kPose, 3);
+  ASSERT_EQ(p.size(), kPosePayloadBytes);
+  PoseReport r;
+  ASSERT_TRUE(ParsePose(p, r).ok());
+  EXPECT_EQ(r.t_us, 777u);
+  EXPECT_EQ(r.state, PoseEstimate::kTracking);
+  EXPECT_TRUE(r.ambiguous);
+  EXPECT_TRUE(r.hint_rejected);
+  EXPECT_EQ(r.usable, e.usable());
+  EXPECT_EQ(r.points_used, 40);
+  EXPECT_EQ(r.inliers, 33);
+  EXPECT_EQ(r.x_m, 1.5f);
+  EXPECT_EQ(r.y_m, -2.25f);
+  EXPECT_EQ(r.heading_rad, 0.5f);
+  EXPECT_EQ(r.sigma_x_m, 0.0625f);
+  EXPECT_EQ(r.sigma_y_m, 0.125f);
+  EXPECT_EQ(r.sigma_heading_rad, 0.03125f);
+  EXPECT_EQ(r.quality, 0.75f);
+}
+
+TEST(Protocol, PoseParserRejectsBadPayloads) {
+  std::vector<uint8_t> out(kMaxWireFrameBytes);
+  auto n = EncodePose(SamplePose(), 1, 1, out);
+  ASSERT_TRUE(n.ok());
+  const auto good = Roundtrip({out.data(), *n}, MsgType::kPose, 1);
+  PoseReport r;
+  r.t_us = 99;
+  EXPECT_FALSE(ParsePose(std::span(good).first(kPosePayloadBytes - 1), r).ok());  // truncated
+  auto bad = good;
+  bad.push_back(0);
+  EXPECT_FALSE(ParsePose(bad, r).ok());  // oversize
+  bad = good;
+  bad[8] = 4;  // unknown state
+  EXPECT_FALSE(ParsePose(bad, r).ok());
+  bad = good;
+  bad[9] |= 0x80;  // unknown flag bit
+  EXPECT_FALSE(ParsePose(bad, r).ok());
+  bad = good;
+  bad[12] = 41;  // inliers > points used
+  EXPECT_FALSE(ParsePose(bad, r).ok());
+  PoseEstimate e = SamplePose();
+  e.x_m = NAN;  // usable (tracking) pose with a NaN
+  n = EncodePose(e, 1, 1, out);
+  ASSERT_TRUE(n.ok());
+  EXPECT_FALSE(ParsePose(Roundtrip({out.data(), *n}, MsgType::kPose, 1), r).ok());
+  e = SamplePose();
+  e.quality = NAN;
+  n = EncodePose(e, 1, 1, out);
+  EXPECT_FALSE(ParsePose(Roundtrip({out.data(), *n}, MsgType::kPose, 1), r).ok());
+  EXPECT_EQ(r.t_us, 99u);  // untouched by every refusal
+  // An unknown pose may carry anything in x..sigma (not used): still parses.
+  e = PoseEstimate{};
+  e.x_m = NAN;
+  n = EncodePose(e, 1, 1, out);
+  ASSERT_TRUE(ParsePose(Roundtrip({out.data(), *n}, MsgType::kPose, 1), r).ok());
+  EXPECT_FALSE(r.usable);
+  EXPECT_EQ(r.state, PoseEstimate::kUnknown);
+}
+
+TEST(Protocol, LinePointsRoundTripInMillimetres) {
+  FieldFeatures f = SampleFeatures(5, 0);
+  f.lines[1].x_m = 1.23449f;  // rounds to 1234 mm
+  f.lines[1].y_m = -0.0006f;  // rounds to -1 mm
+  std::vector<uint8_t> out(kMaxWireFrameBytes);
+  size_t sent = 0;
+  auto n = EncodeLinePoints(f, 55, 8, out, sent);
+  ASSERT_TRUE(n.ok());
+  EXPECT_EQ(sent, 5u);
+  const auto p = Roundtrip({out.data(), *n}, MsgType::kLinePoints, 8);
+  EXPECT_EQ(p.size(), kLinePointsHeaderBytes + 5 * kLinePointBytes);
+  LinePointsReport r;
+  ASSERT_TRUE(ParseLinePoints(p, r).ok());
+  EXPECT_EQ(r.t_us, 55u);
+  EXPECT_EQ(r.found, 5);
+  ASSERT_EQ(r.count, 5);
+  EXPECT_EQ(r.points[0].x_mm, -1000);
+  EXPECT_EQ(r.points[0].y_mm, 2000);
+  EXPECT_EQ(r.points[1].x_mm, 1234);
+  EXPECT_EQ(r.points[1].y_mm, -1);
+  EXPECT_EQ(r.points[4].x_mm, 0);
+  EXPECT_EQ(r.points[4].y_mm, 1500);
+}
+
+TEST(Protocol, LinePointFloodIsDecimatedEvenlyAndCounted) {
+  FieldFeatures f = SampleFeatures(FieldFeatures::kMaxLinePoints, 0);
+  for (int i = 0; i < f.line_count; ++i) f.lines[i].x_m = 0.001f * static_cast<float>(i);
+  f.lines_dropped = 30;  // the extractor's own overflow is part of "found"
+  std::vector<uint8_t> out(kMaxWireFrameBytes);
+  size_t sent = 0;
+  auto n = EncodeLinePoints(f, 1, 1, out, sent);
+  ASSERT_TRUE(n.ok());
+  EXPECT_EQ(sent, kMaxLinePointsPerPacket);
+  EXPECT_LE(*n, WireFrameBytes(kLinePointsHeaderBytes + kMaxLinePointsPerPacket * 4));
+  LinePointsReport r;
+  ASSERT_TRUE(ParseLinePoints(Roundtrip({out.data(), *n}, MsgType::kLinePoints, 1), r).ok());
+  EXPECT_EQ(r.found, FieldFeatures::kMaxLinePoints + 30);
+  ASSERT_EQ(r.count, kMaxLinePointsPerPacket);
+  // Evenly spread over all 96 (point k = index 1.5 k): first and last third both present.
+  EXPECT_EQ(r.points[0].x_mm, 0);
+  EXPECT_EQ(r.points[1].x_mm, 1);
+  EXPECT_EQ(r.points[2].x_mm, 3);
+  EXPECT_EQ(r.points[63].x_mm, 94);
+  // A smaller cap, and points that do not fit int16 mm (NaN, 40 m) are skipped, not wrapped.
+  f.lines[0].x_m = NAN;
+  f.lines[48].y_m = 40.0f;
+  n = EncodeLinePoints(f, 1, 1, out, sent, 4);
+  ASSERT_TRUE(n.ok());
+  EXPECT_EQ(sent, 2u);  // indices 0, 24, 48, 72: two skipped
+  ASSERT_TRUE(ParseLinePoints(Roundtrip({out.data(), *n}, MsgType::kLinePoints, 1), r).ok());
+  EXPECT_EQ(r.count, 2);
+  EXPECT_EQ(r.points[0].x_mm, 24);
+  EXPECT_EQ(r.points[1].x_mm, 72);
+}
+
+TEST(Protocol, LinePointsParserRejectsBadPayloads) {
+  std::vector<uint8_t> out(kMaxWireFrameBytes);
+  size_t sent = 0;
+  auto n = EncodeLinePoints(SampleFeatures(3, 0), 1, 1, out, sent);
+  ASSERT_TRUE(n.ok());
+  const auto good = Roundtrip({out.data(), *n}, MsgType::kLinePoints, 1);
+  LinePointsReport r;
+  ASSERT_TRUE(ParseLinePoints(good, r).ok());
+  EXPECT_FALSE(ParseLinePoints(std::span(good).first(good.size() - 1), r).ok());  // truncated
+  EXPECT_FALSE(ParseLinePoints(std::span(good).first(5), r).ok());                // no header
+  auto bad = good;
+  bad.insert(bad.end(), {1, 2, 3, 4});  // a point more than the count says
+  EXPECT_FALSE(ParseLinePoints(bad, r).ok());
+  bad = good;
+  bad[10] = 4;  // count > found
+  EXPECT_FALSE(ParseLinePoints(bad, r).ok());
+  // count beyond the packet capacity, with the length and found to match
+  std::vector<uint8_t> flood(kLinePointsHeaderBytes + (kMaxLinePointsPerPacket + 1) * 4, 1);
+  flood[8] = 200, flood[9] = 0, flood[10] = kMaxLinePointsPerPacket + 1, flood[11] = 0;
+  EXPECT_FALSE(ParseLinePoints(flood, r).ok());
+  flood.resize(kLinePointsHeaderBytes + kMaxLinePointsPerPacket * 4);
+  flood[10] = kMaxLinePointsPerPacket;
+  EXPECT_TRUE(ParseLinePoints(flood, r).ok());  // the same at capacity is fine
+  bad = good;
+  bad[11] = 1;  // reserved byte
+  EXPECT_FALSE(ParseLinePoints(bad, r).ok());
+}
+
+TEST(Protocol, ObstaclesRoundTripAndBadPayloads) {
+  FieldFeatures f = SampleFeatures(0, FieldFeatures::kMaxObstacles);
+  f.obstacles_dropped = 3;
+  f.obstacles[5].radius_m = NAN;  // skipped, not sent as garbage
+  std::vector<uint8_t> out(kMaxWireFrameBytes);
+  auto n = EncodeObstacles(f, 9, 2, out);
+  ASSERT_TRUE(n.ok());
+  EXPECT_LE(*n, WireFrameBytes(kObstaclesHeaderBytes + kMaxObstaclesPerPacket * kObstacleBytes));
+  const auto good = Roundtrip({out.data(), *n}, MsgType::kObstacles, 2);
+  ObstaclesReport r;
+  ASSERT_TRUE(ParseObstacles(good, r).ok());
+  EXPECT_EQ(r.t_us, 9u);
+  EXPECT_EQ(r.found, FieldFeatures::kMaxObstacles + 3);
+  ASSERT_EQ(r.count, FieldFeatures::kMaxObstacles - 1);
+  EXPECT_EQ(r.obstacles[0].x_mm, 1000);
+  EXPECT_EQ(r.obstacles[0].y_mm, -500);
+  EXPECT_EQ(r.obstacles[0].radius_mm, 250);
+  EXPECT_EQ(r.obstacles[5].x_mm, 7000);  // obstacle 6: 5 was skipped
+  EXPECT_FALSE(ParseObstacles(std::span(good).first(good.size() - 2), r).ok());  // truncated
+  EXPECT_FALSE(ParseObstacles(std::span(good).first(9), r).ok());
+  auto bad = good;
+  bad[9] = static_cast<uint8_t>(bad[8] + 1);  // count > found
+  EXPECT_FALSE(ParseObstacles(bad, r).ok());
+  std::vector<uint8_t> flood(kObstaclesHeaderBytes + 17 * kObstacleBytes, 0);
+  flood[8] = 200, flood[9] = 17;  // beyond capacity, length consistent
+  EXPECT_FALSE(ParseObstacles(flood, r).ok());
+  n = EncodeObstacles(SampleFeatures(0, 0), 9, 2, out);
+  ASSERT_TRUE(n.ok());
+  ASSERT_TRUE(ParseObstacles(Roundtrip({out.data(), *n}, MsgType::kObstacles, 2), r).ok());
+  EXPECT_EQ(r.count, 0);
+}
+
+// Worst case of one pair's packets (ball, pose, full obstacles, full lines, a status) on the
+// wire: the figures of docs/protocol.md's link budget.
+TEST(Protocol, LinkBudgetFitsAt60Hz) {
+  const size_t ball = WireFrameBytes(kBallStatePayloadBytes);
+  const size_t status = WireFrameBytes(kStatusPayloadBytes);
+  const size_t pose = WireFrameBytes(kPosePayloadBytes);
+  const size_t obstacles =
+      WireFrameBytes(kObstaclesHeaderBytes + kMaxObstaclesPerPacket * kObstacleBytes);
+  const size_t lines =
+      WireFrameBytes(kLinePointsHeaderBytes + kMaxLinePointsPerPacket * kLinePointBytes);
+  EXPECT_EQ(ball, 108u);
+  EXPECT_EQ(status, 120u);
+  EXPECT_EQ(pose, 58u);
+  EXPECT_EQ(obstacles, 122u);
+  EXPECT_EQ(lines, 285u);
+  const size_t per_pair = ball + status + pose + obstacles + lines;
+  const size_t bytes_per_s = 921600 / 10;          // 8N1: 10 bits a byte
+  EXPECT_LT(per_pair * 60, bytes_per_s * 6 / 10);  // < 60 % of the link at 60 Hz
+}
+
 // A seeded corrupter: 1 % byte flips, dropped and inserted bytes. No corrupt packet may be
 // accepted, and the decoder must resync within one packet after every corruption.
 TEST(Protocol, CorruptLinkNeverAcceptsBadPacketsAndResyncs) {
@@ -229,9 +478,24 @@ TEST(Protocol, GoldenStreamMatchesCommittedFixture) {
   st.rx_overruns = 1;  // the appended receive-loss fields, at distinct values
   st.rx_ring_full = 2;
   st.rx_line_errors = 3;
+  st.feature_packets_dropped = 4;
+  st.line_points_unsent = 5;
   auto b = EncodeStatus(st, 42, std::span(stream).subspan(*a));
   ASSERT_TRUE(b.ok());
-  stream.resize(*a + *b);
+  size_t used = *a + *b;
+  stream.resize(used + 3 * kMaxWireFrameBytes);
+  const FieldFeatures feat = SampleFeatures(3, 2);
+  auto c = EncodePose(SamplePose(), 1000000, 43, std::span(stream).subspan(used));
+  ASSERT_TRUE(c.ok());
+  used += *c;
+  auto d = EncodeObstacles(feat, 1000000, 44, std::span(stream).subspan(used));
+  ASSERT_TRUE(d.ok());
+  used += *d;
+  size_t sent = 0;
+  auto e = EncodeLinePoints(feat, 1000000, 45, std::span(stream).subspan(used), sent);
+  ASSERT_TRUE(e.ok());
+  used += *e;
+  stream.resize(used);
   const std::string path = std::string(BV_TEST_DATA_DIR) + "/protocol_golden.bin";
   FILE* f = std::fopen(path.c_str(), "rb");
   if (!f && std::getenv("BV_REGENERATE_GOLDEN")) {

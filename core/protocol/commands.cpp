@@ -12,6 +12,8 @@ bool ValidTarget(uint8_t t) {
          t == static_cast<uint8_t>(UploadTarget::kLut);
 }
 
+bool Within(float v, float limit) { return std::fabs(v) <= limit; }  // false for NaN
+
 }  // namespace
 
 CommandResult CommandHandler::Handle(const FrameView& frame, uint32_t reply_seq,
@@ -66,10 +68,46 @@ CommandError CommandHandler::Dispatch(const FrameView& frame, bool& send_status,
     }
     case MsgType::kUploadCommit:
       return UploadCommit(p);
+    case MsgType::kSetFieldHalf:
+    case MsgType::kOdometry:
+    case MsgType::kSetPose:
+      if (pose_ == nullptr) break;
+      return PoseCommand(frame.type, p);
     default:
-      detail = static_cast<uint32_t>(frame.type);
-      return CommandError::kUnknownCommand;
+      break;
   }
+  detail = static_cast<uint32_t>(frame.type);
+  return CommandError::kUnknownCommand;
+}
+
+// Every value is checked here before the sink sees it: a refused command changes nothing.
+CommandError CommandHandler::PoseCommand(MsgType type, std::span<const uint8_t> p) {
+  ByteReader r(p);
+  Status s;
+  if (type == MsgType::kSetFieldHalf) {
+    if (p.size() != 1) return CommandError::kBadLength;
+    const auto half = static_cast<int8_t>(r.U8());
+    if (half < -1 || half > 1) return CommandError::kBadValue;
+    s = pose_->SetFieldHalf(half);
+  } else if (type == MsgType::kOdometry) {
+    if (p.size() != 12) return CommandError::kBadLength;
+    const float dx = r.F32(), dy = r.F32(), dh = r.F32();
+    if (!Within(dx, kMaxOdometryStepM) || !Within(dy, kMaxOdometryStepM) ||
+        !Within(dh, kMaxOdometryStepRad)) {
+      return CommandError::kBadValue;
+    }
+    s = pose_->SetOdometry(dx, dy, dh);
+  } else {
+    if (p.size() != 13) return CommandError::kBadLength;
+    const uint8_t known = r.U8();
+    const float x = r.F32(), y = r.F32(), h = r.F32();
+    if (known > 1 || !Within(x, kMaxPoseFieldM) || !Within(y, kMaxPoseFieldM) ||
+        !Within(h, kMaxPoseHeadingRad)) {
+      return CommandError::kBadValue;
+    }
+    s = pose_->SetRobotPose(known == 1, x, y, h);
+  }
+  return s.ok() ? CommandError::kNone : CommandError::kBadValue;
 }
 
 CommandError CommandHandler::UploadBegin(std::span<const uint8_t> p) {

@@ -7,6 +7,9 @@
 //   upload begin    (0x22): target u8 | total_len u32 | total_crc32 u32
 //   upload chunk    (0x23): target u8 | offset u32 | data (1..kMaxChunkBytes)
 //   upload commit   (0x24): target u8                       -> verified and activated, or error
+//   set field half  (0x25): half i8 (-1, 0, +1)             -> ack / error
+//   odometry        (0x26): dx f32 | dy f32 | dheading f32   -> ack / error
+//   set pose        (0x27): known u8 | x f32 | y f32 | heading f32 -> ack / error
 // Replies: ack (0x10): cmd_type u8 | cmd_seq u32
 //          error (0x11): cmd_type u8 | cmd_seq u32 | code u8 (CommandError) | detail u32
 #include <cstddef>
@@ -58,6 +61,22 @@ class ParamSink {
   virtual Status SetParam(uint16_t id, float value) = 0;
 };
 
+/// Localisation hints from the main computer (the firmware forwards them to the Pipeline).
+/// Values reach it only after the handler's range checks; a refusal leaves everything unchanged.
+class PoseSink {
+ public:
+  virtual ~PoseSink() = default;
+  virtual Status SetFieldHalf(int8_t half) = 0;
+  virtual Status SetOdometry(float dx_m, float dy_m, float dheading_rad) = 0;
+  virtual Status SetRobotPose(bool known, float x_m, float y_m, float heading_rad) = 0;
+};
+
+// Ranges the handler accepts (the Pipeline and the pose parameters use the same limits).
+inline constexpr float kMaxOdometryStepM = 2.0f;
+inline constexpr float kMaxOdometryStepRad = 3.2f;
+inline constexpr float kMaxPoseFieldM = 20.0f;
+inline constexpr float kMaxPoseHeadingRad = 10.0f;
+
 struct CommandResult {
   bool send_status = false;  // the caller must send a status packet
   bool reply_is_error = false;
@@ -66,7 +85,9 @@ struct CommandResult {
 
 class CommandHandler {
  public:
-  CommandHandler(UploadSink& uploads, ParamSink& params) : uploads_(uploads), params_(params) {}
+  /// Without a PoseSink the pose commands are answered kUnknownCommand.
+  CommandHandler(UploadSink& uploads, ParamSink& params, PoseSink* pose = nullptr)
+      : uploads_(uploads), params_(params), pose_(pose) {}
 
   /// Handles one verified frame from the Decoder and encodes the reply (ack or error) into
   /// `reply` (a whole wire frame). Returns the reply's size in `reply_len` (0: no reply).
@@ -79,9 +100,11 @@ class CommandHandler {
   CommandError UploadBegin(std::span<const uint8_t> p);
   CommandError UploadChunk(std::span<const uint8_t> p);
   CommandError UploadCommit(std::span<const uint8_t> p);
+  CommandError PoseCommand(MsgType type, std::span<const uint8_t> p);
 
   UploadSink& uploads_;
   ParamSink& params_;
+  PoseSink* pose_;
   bool uploading_ = false;
   UploadTarget target_ = UploadTarget::kCalibration;
   size_t total_len_ = 0;

@@ -18,9 +18,21 @@ constexpr char kSchema[] =
     "packets_dropped pairs_omni_missing pairs_persp_missing pairs_out_of_sync pairs_out_of_order "
     "pairs_torn calibration_id lut_id u32,calibration_state lut_state u8,reserved u16,"
     "rx_errors command_errors pipeline_errors last_proc_us max_proc_us fault_flags u32,"
-    "rx_overruns rx_ring_full rx_line_errors u32";
+    "rx_overruns rx_ring_full rx_line_errors u32,feature_packets_dropped line_points_unsent u32;"
+    "pose:t_us u64,state u8,flags u8,points_used inliers u16,x y heading f32,"
+    "sigma_x sigma_y sigma_heading f32,quality f32;"
+    "lines:t_us u64,found u16,count u8,reserved u8,count*(x_mm y_mm i16);"
+    "obstacles:t_us u64,found count u8,count*(x_mm y_mm i16,radius_mm u16)";
 
 bool Finite(float v) { return std::isfinite(v); }
+
+// Metres to int16 millimetres; false if NaN or beyond +-32.767 m.
+bool ToMm(float m, int16_t& mm) {
+  const float v = m * 1000.0f;
+  if (!(v >= -32767.0f && v <= 32767.0f)) return false;
+  mm = static_cast<int16_t>(std::lround(v));
+  return true;
+}
 
 }  // namespace
 
@@ -170,9 +182,9 @@ Result<size_t> EncodeStatus(const StatusReport& s, uint32_t seq, std::span<uint8
   w.U8(s.calibration_state);
   w.U8(s.lut_state);
   w.U16(s.reserved);
-  for (uint32_t v :
-       {s.rx_errors, s.command_errors, s.pipeline_errors, s.last_proc_us, s.max_proc_us,
-        s.fault_flags, s.rx_overruns, s.rx_ring_full, s.rx_line_errors}) {
+  for (uint32_t v : {s.rx_errors, s.command_errors, s.pipeline_errors, s.last_proc_us,
+                     s.max_proc_us, s.fault_flags, s.rx_overruns, s.rx_ring_full, s.rx_line_errors,
+                     s.feature_packets_dropped, s.line_points_unsent}) {
     w.U32(v);
   }
   if (w.size() != kStatusPayloadBytes) return Status(StatusCode::kInternal, "status payload size");
@@ -194,14 +206,167 @@ Status ParseStatus(std::span<const uint8_t> payload, StatusReport& out) {
   s.calibration_state = r.U8();
   s.lut_state = r.U8();
   s.reserved = r.U16();
-  uint32_t* tail[] = {&s.rx_errors,    &s.command_errors, &s.pipeline_errors,
-                      &s.last_proc_us, &s.max_proc_us,    &s.fault_flags,
-                      &s.rx_overruns,  &s.rx_ring_full,   &s.rx_line_errors};
+  uint32_t* tail[] = {&s.rx_errors,         &s.command_errors,
+                      &s.pipeline_errors,   &s.last_proc_us,
+                      &s.max_proc_us,       &s.fault_flags,
+                      &s.rx_overruns,       &s.rx_ring_full,
+                      &s.rx_line_errors,    &s.feature_packets_dropped,
+                      &s.line_points_unsent};
   for (uint32_t* f : tail) *f = r.U32();
   if (s.calibration_state > 2 || s.lut_state > 2) {
     return Status(StatusCode::kInvalidArgument, "status: unknown blob state");
   }
   out = s;
+  return Status();
+}
+
+Result<size_t> EncodePose(const PoseEstimate& e, uint64_t t_us, uint32_t seq,
+                          std::span<uint8_t> out) {
+  uint8_t p[kPosePayloadBytes];
+  ByteWriter w(p);
+  w.U64(t_us);
+  w.U8(static_cast<uint8_t>(e.state));
+  w.U8(static_cast<uint8_t>((e.ambiguous ? kPoseAmbiguous : 0) |
+                            (e.hint_rejected ? kPoseHintRejected : 0) |
+                            (e.usable() ? kPoseUsable : 0)));
+  w.U16(e.points_used);
+  w.U16(e.inliers);
+  for (float v :
+       {e.x_m, e.y_m, e.heading_rad, e.sigma_x_m, e.sigma_y_m, e.sigma_heading_rad, e.quality}) {
+    w.F32(v);
+  }
+  if (w.size() != kPosePayloadBytes) return Status(StatusCode::kInternal, "pose payload size");
+  return EncodeFrame(MsgType::kPose, seq, w.written(), out);
+}
+
+Status ParsePose(std::span<const uint8_t> payload, PoseReport& out) {
+  if (payload.size() != kPosePayloadBytes) {
+    return Status(StatusCode::kInvalidArgument, "pose: wrong payload length");
+  }
+  ByteReader r(payload);
+  PoseReport s;
+  s.t_us = r.U64();
+  s.state = r.U8();
+  const uint8_t flags = r.U8();
+  s.points_used = r.U16();
+  s.inliers = r.U16();
+  float* f[] = {&s.x_m,    &s.y_m, &s.heading_rad, &s.sigma_x_m, &s.sigma_y_m, &s.sigma_heading_rad,
+                &s.quality};
+  for (float* v : f) *v = r.F32();
+  if (s.state > PoseEstimate::kCoasting) return Status(StatusCode::kInvalidArgument, "pose: state");
+  if (flags & ~(kPoseAmbiguous | kPoseHintRejected | kPoseUsable)) {
+    return Status(StatusCode::kInvalidArgument, "pose: unknown flag bits");
+  }
+  s.ambiguous = flags & kPoseAmbiguous;
+  s.hint_rejected = flags & kPoseHintRejected;
+  s.usable = flags & kPoseUsable;
+  if (s.inliers > s.points_used) return Status(StatusCode::kInvalidArgument, "pose: inliers");
+  if (s.usable && !(Finite(s.x_m) && Finite(s.y_m) && Finite(s.heading_rad) &&
+                    Finite(s.sigma_x_m) && Finite(s.sigma_y_m) && Finite(s.sigma_heading_rad))) {
+    return Status(StatusCode::kInvalidArgument, "pose: usable pose not finite");
+  }
+  if (!(s.quality >= 0.0f && s.quality <= 1.0f)) {
+    return Status(StatusCode::kInvalidArgument, "pose: quality not in 0..1");
+  }
+  out = s;
+  return Status();
+}
+
+Result<size_t> EncodeLinePoints(const FieldFeatures& f, uint64_t t_us, uint32_t seq,
+                                std::span<uint8_t> out, size_t& sent, size_t max_points) {
+  sent = 0;
+  if (max_points > kMaxLinePointsPerPacket) max_points = kMaxLinePointsPerPacket;
+  const size_t n = f.line_count > 0 ? static_cast<size_t>(f.line_count) : 0;
+  const size_t found = n + f.lines_dropped;
+  const size_t take = n < max_points ? n : max_points;
+  uint8_t p[kLinePointsHeaderBytes + kMaxLinePointsPerPacket * kLinePointBytes];
+  ByteWriter w(p);
+  w.U64(t_us);
+  w.U16(static_cast<uint16_t>(found > 0xFFFF ? 0xFFFF : found));
+  w.U8(0);  // count, patched below
+  w.U8(0);
+  for (size_t i = 0; i < take; ++i) {
+    const LinePoint& lp = f.lines[i * n / take];  // evenly spread: every ray sector keeps some
+    int16_t x = 0, y = 0;
+    if (!ToMm(lp.x_m, x) || !ToMm(lp.y_m, y)) continue;
+    w.I16(x);
+    w.I16(y);
+    ++sent;
+  }
+  p[10] = static_cast<uint8_t>(sent);
+  return EncodeFrame(MsgType::kLinePoints, seq, w.written(), out);
+}
+
+Status ParseLinePoints(std::span<const uint8_t> payload, LinePointsReport& out) {
+  if (payload.size() < kLinePointsHeaderBytes) {
+    return Status(StatusCode::kInvalidArgument, "line points: payload too short");
+  }
+  ByteReader r(payload);
+  const uint64_t t_us = r.U64();
+  const uint16_t found = r.U16();
+  const uint8_t count = r.U8();
+  const uint8_t reserved = r.U8();
+  if (count > kMaxLinePointsPerPacket || count > found || reserved != 0) {
+    return Status(StatusCode::kInvalidArgument, "line points: count beyond capacity or found");
+  }
+  if (payload.size() != kLinePointsHeaderBytes + count * kLinePointBytes) {
+    return Status(StatusCode::kInvalidArgument, "line points: length disagrees with count");
+  }
+  out.t_us = t_us;
+  out.found = found;
+  out.count = count;
+  for (size_t i = 0; i < count; ++i) {
+    out.points[i].x_mm = r.I16();
+    out.points[i].y_mm = r.I16();
+  }
+  return Status();
+}
+
+Result<size_t> EncodeObstacles(const FieldFeatures& f, uint64_t t_us, uint32_t seq,
+                               std::span<uint8_t> out) {
+  const size_t n = f.obstacle_count > 0 ? static_cast<size_t>(f.obstacle_count) : 0;
+  const size_t found = n + f.obstacles_dropped;
+  uint8_t p[kObstaclesHeaderBytes + kMaxObstaclesPerPacket * kObstacleBytes];
+  ByteWriter w(p);
+  w.U64(t_us);
+  w.U8(static_cast<uint8_t>(found > 0xFF ? 0xFF : found));
+  w.U8(0);  // count, patched below
+  uint8_t sent = 0;
+  for (size_t i = 0; i < n && i < kMaxObstaclesPerPacket; ++i) {
+    const Obstacle& o = f.obstacles[i];
+    int16_t x = 0, y = 0, r = 0;
+    if (!ToMm(o.x_m, x) || !ToMm(o.y_m, y) || !ToMm(o.radius_m, r) || r < 0) continue;
+    w.I16(x);
+    w.I16(y);
+    w.U16(static_cast<uint16_t>(r));
+    ++sent;
+  }
+  p[9] = sent;
+  return EncodeFrame(MsgType::kObstacles, seq, w.written(), out);
+}
+
+Status ParseObstacles(std::span<const uint8_t> payload, ObstaclesReport& out) {
+  if (payload.size() < kObstaclesHeaderBytes) {
+    return Status(StatusCode::kInvalidArgument, "obstacles: payload too short");
+  }
+  ByteReader r(payload);
+  const uint64_t t_us = r.U64();
+  const uint8_t found = r.U8();
+  const uint8_t count = r.U8();
+  if (count > kMaxObstaclesPerPacket || count > found) {
+    return Status(StatusCode::kInvalidArgument, "obstacles: count beyond capacity or found");
+  }
+  if (payload.size() != kObstaclesHeaderBytes + count * kObstacleBytes) {
+    return Status(StatusCode::kInvalidArgument, "obstacles: length disagrees with count");
+  }
+  out.t_us = t_us;
+  out.found = found;
+  out.count = count;
+  for (size_t i = 0; i < count; ++i) {
+    out.obstacles[i].x_mm = r.I16();
+    out.obstacles[i].y_mm = r.I16();
+    out.obstacles[i].radius_mm = r.U16();
+  }
   return Status();
 }
 

@@ -10,6 +10,8 @@
 
 #include "core/common/ball_state.h"
 #include "core/common/status.h"
+#include "core/field/features.h"
+#include "core/field/localise.h"
 
 namespace bv::protocol {
 
@@ -20,10 +22,17 @@ inline constexpr size_t kMaxPayloadBytes = 1024;
 inline constexpr size_t kMaxRawFrameBytes = kHeaderBytes + kMaxPayloadBytes + kCrcBytes;
 // COBS adds one byte per 254 plus the leading code byte; +1 for the delimiter.
 inline constexpr size_t kMaxWireFrameBytes = kMaxRawFrameBytes + kMaxRawFrameBytes / 254 + 2;
+/// Upper bound of the wire size of a frame with `payload` bytes (COBS worst case + delimiter).
+constexpr size_t WireFrameBytes(size_t payload) {
+  return kHeaderBytes + payload + kCrcBytes + (kHeaderBytes + payload + kCrcBytes) / 254 + 2;
+}
 
 enum class MsgType : uint8_t {
   kBallState = 0x01,
   kStatus = 0x02,
+  kPose = 0x03,        // self-localisation, one per frame pair
+  kLinePoints = 0x04,  // floor points on field lines, one per frame pair (decimated)
+  kObstacles = 0x05,   // obstacle footprints, one per frame pair
   kAck = 0x10,
   kError = 0x11,
   kRequestStatus = 0x20,
@@ -31,6 +40,9 @@ enum class MsgType : uint8_t {
   kUploadBegin = 0x22,
   kUploadChunk = 0x23,
   kUploadCommit = 0x24,
+  kSetFieldHalf = 0x25,
+  kOdometry = 0x26,
+  kSetPose = 0x27,
 };
 
 /// 16-bit hash of the payload layouts below; bumped automatically when they change, so a
@@ -38,7 +50,16 @@ enum class MsgType : uint8_t {
 uint16_t SchemaHash();
 
 inline constexpr size_t kBallStatePayloadBytes = 92;
-inline constexpr size_t kStatusPayloadBytes = 96;
+inline constexpr size_t kStatusPayloadBytes = 104;
+inline constexpr size_t kPosePayloadBytes = 42;
+// Line points per packet: the 35-51 a frame typically has fit whole; beyond, an evenly spread
+// subset is sent (docs/protocol.md has the link budget).
+inline constexpr size_t kMaxLinePointsPerPacket = 64;
+inline constexpr size_t kLinePointsHeaderBytes = 12;
+inline constexpr size_t kLinePointBytes = 4;
+inline constexpr size_t kMaxObstaclesPerPacket = FieldFeatures::kMaxObstacles;
+inline constexpr size_t kObstaclesHeaderBytes = 10;
+inline constexpr size_t kObstacleBytes = 6;
 
 /// Health of the coprocessor, sent at least once per second.
 struct StatusReport {
@@ -68,6 +89,48 @@ struct StatusReport {
   uint32_t rx_overruns = 0;     // bytes the UART hardware lost
   uint32_t rx_ring_full = 0;    // frames dropped: the receive ring had no room
   uint32_t rx_line_errors = 0;  // framing / noise / parity errors (line breaks)
+  // Field-feature stream (appended): pose / line / obstacle packets the TX ring had no room for
+  // (the ball state keeps priority), and line points found but not sent (decimation, capacity).
+  uint32_t feature_packets_dropped = 0;
+  uint32_t line_points_unsent = 0;
+};
+
+/// Decoded pose packet (the localiser's PoseEstimate at the pair's exposure time).
+struct PoseReport {
+  uint64_t t_us = 0;
+  uint8_t state = 0;  // PoseEstimate::State
+  bool ambiguous = false;
+  bool hint_rejected = false;
+  bool usable = false;  // PoseEstimate::usable() on the coprocessor
+  uint16_t points_used = 0;
+  uint16_t inliers = 0;
+  float x_m = 0, y_m = 0, heading_rad = 0;
+  float sigma_x_m = 0, sigma_y_m = 0, sigma_heading_rad = 0;
+  float quality = 0;
+};
+enum PoseFlags : uint8_t { kPoseAmbiguous = 1, kPoseHintRejected = 2, kPoseUsable = 4 };
+
+struct PointMm {
+  int16_t x_mm = 0, y_mm = 0;  // robot frame, floor
+};
+/// Decoded line-points packet.
+struct LinePointsReport {
+  uint64_t t_us = 0;
+  uint16_t found = 0;  // line points the extractor found this frame (over capacity included)
+  uint8_t count = 0;   // points in this packet
+  PointMm points[kMaxLinePointsPerPacket];
+};
+
+struct ObstacleMm {
+  int16_t x_mm = 0, y_mm = 0;  // footprint centre, robot frame
+  uint16_t radius_mm = 0;
+};
+/// Decoded obstacles packet.
+struct ObstaclesReport {
+  uint64_t t_us = 0;
+  uint8_t found = 0;  // obstacles found this frame (over capacity included), saturated at 255
+  uint8_t count = 0;
+  ObstacleMm obstacles[kMaxObstaclesPerPacket];
 };
 
 enum class BlobState : uint8_t { kOk = 0, kMissing = 1, kCorrupt = 2 };
@@ -80,6 +143,17 @@ Result<size_t> EncodeFrame(MsgType type, uint32_t seq, std::span<const uint8_t> 
                            std::span<uint8_t> out);
 Result<size_t> EncodeBallState(const BallState& state, uint32_t seq, std::span<uint8_t> out);
 Result<size_t> EncodeStatus(const StatusReport& status, uint32_t seq, std::span<uint8_t> out);
+Result<size_t> EncodePose(const PoseEstimate& pose, uint64_t t_us, uint32_t seq,
+                          std::span<uint8_t> out);
+/// At most `max_points` (<= kMaxLinePointsPerPacket) line points, evenly spread over the
+/// frame's when there are more; points that do not fit int16 mm (or are NaN) are skipped.
+/// `sent` receives the number of points in the packet.
+Result<size_t> EncodeLinePoints(const FieldFeatures& features, uint64_t t_us, uint32_t seq,
+                                std::span<uint8_t> out, size_t& sent,
+                                size_t max_points = kMaxLinePointsPerPacket);
+/// All obstacles (FieldFeatures holds at most kMaxObstaclesPerPacket); unencodable ones skipped.
+Result<size_t> EncodeObstacles(const FieldFeatures& features, uint64_t t_us, uint32_t seq,
+                               std::span<uint8_t> out);
 
 // --- decoding ---
 
@@ -93,6 +167,9 @@ struct FrameView {
 /// position, unknown mode).
 Status ParseBallState(std::span<const uint8_t> payload, BallState& out);
 Status ParseStatus(std::span<const uint8_t> payload, StatusReport& out);
+Status ParsePose(std::span<const uint8_t> payload, PoseReport& out);
+Status ParseLinePoints(std::span<const uint8_t> payload, LinePointsReport& out);
+Status ParseObstacles(std::span<const uint8_t> payload, ObstaclesReport& out);
 
 struct DecoderStats {
   uint32_t frames_ok = 0;

@@ -30,11 +30,14 @@ namespace {
 int ListenUsage() {
   std::fprintf(stderr,
                "usage: ballvision listen SOURCE [--csv STATES.csv] [--status-csv STATUS.csv]\n"
+               "                         [--pose-csv POSE.csv] [--lines-csv LINES.csv]\n"
+               "                         [--obstacles-csv OBSTACLES.csv]\n"
                "                         [--baud N] [--seconds S] [--quiet]\n"
                "  SOURCE: a serial device or pty (/dev/ttyUSB0), a file of captured bytes, '-'\n"
                "          for stdin, or tcp:HOST:PORT (e.g. QEMU -chardev socket)\n"
                "  Prints a live table (unless --quiet) and a summary; exit 1 if nothing valid\n"
-               "  was received.\n");
+               "  was received. --lines-csv / --obstacles-csv: one row per point / obstacle\n"
+               "  (robot frame, m), with the packet's seq, t_us and found count.\n");
   return 2;
 }
 
@@ -134,11 +137,107 @@ bool FinishListenOutputs(SafeOutput& csv, SafeOutput& status_csv) {
   return ok;
 }
 
+// Pose, line-point and obstacle packets: counted, optionally written as CSV, shown every 10th.
+struct FieldStreams {
+  SafeOutput pose, lines, obstacles;
+  uint32_t poses = 0, line_packets = 0, obstacle_packets = 0;
+  bool quiet = false;
+
+  bool Open(const std::string& pose_path, const std::string& lines_path,
+            const std::string& obstacles_path, std::string& err) {
+    if (!pose_path.empty()) {
+      if (!pose.Open(pose_path, err)) return false;
+      pose << "seq,t_us,state,x,y,heading,sigma_x,sigma_y,sigma_heading,quality,ambiguous,"
+              "hint_rejected,usable,points_used,inliers\n";
+    }
+    if (!lines_path.empty()) {
+      if (!lines.Open(lines_path, err)) return false;
+      lines << "seq,t_us,found,index,x,y\n";
+    }
+    if (!obstacles_path.empty()) {
+      if (!obstacles.Open(obstacles_path, err)) return false;
+      obstacles << "seq,t_us,found,index,x,y,radius\n";
+    }
+    return true;
+  }
+
+  // Commits every open file (safe_write: temporary, fsync, rename); false on the first error.
+  bool Commit() {
+    bool ok = true;
+    for (SafeOutput* out : {&pose, &lines, &obstacles}) {
+      std::string e;
+      if (out->is_open() && !out->Commit(e)) {
+        std::fprintf(stderr, "ballvision listen: %s\n", e.c_str());
+        ok = false;
+      }
+    }
+    return ok;
+  }
+
+  // False if the payload does not parse.
+  bool Pose(const protocol::FrameView& f) {
+    protocol::PoseReport p;
+    if (!protocol::ParsePose(f.payload, p).ok()) return false;
+    ++poses;
+    if (pose.is_open()) {
+      pose << f.seq << ',' << p.t_us << ',' << int(p.state) << ',' << p.x_m << ',' << p.y_m << ','
+           << p.heading_rad << ',' << p.sigma_x_m << ',' << p.sigma_y_m << ','
+           << p.sigma_heading_rad << ',' << p.quality << ',' << int(p.ambiguous) << ','
+           << int(p.hint_rejected) << ',' << int(p.usable) << ',' << p.points_used << ','
+           << p.inliers << '\n';
+    }
+    if (!quiet && poses % 10 == 1) {
+      std::printf(
+          "pose  seq %6u t %10.3f s  state %u%s  x %7.3f y %7.3f h %6.3f  sigma %.3f %.3f "
+          "%.3f  q %.2f  %u/%u inliers%s\n",
+          f.seq, p.t_us * 1e-6, p.state, p.usable ? " usable" : "", p.x_m, p.y_m, p.heading_rad,
+          p.sigma_x_m, p.sigma_y_m, p.sigma_heading_rad, p.quality, p.inliers, p.points_used,
+          p.ambiguous ? "  AMBIGUOUS" : "");
+    }
+    return true;
+  }
+
+  bool Lines(const protocol::FrameView& f) {
+    protocol::LinePointsReport r;
+    if (!protocol::ParseLinePoints(f.payload, r).ok()) return false;
+    ++line_packets;
+    for (int i = 0; lines.is_open() && i < r.count; ++i) {
+      lines << f.seq << ',' << r.t_us << ',' << r.found << ',' << i << ','
+            << r.points[i].x_mm * 1e-3 << ',' << r.points[i].y_mm * 1e-3 << '\n';
+    }
+    if (!quiet && line_packets % 10 == 1) {
+      std::printf("lines seq %6u t %10.3f s  %u of %u points\n", f.seq, r.t_us * 1e-6, r.count,
+                  r.found);
+    }
+    return true;
+  }
+
+  bool Obstacles(const protocol::FrameView& f) {
+    protocol::ObstaclesReport r;
+    if (!protocol::ParseObstacles(f.payload, r).ok()) return false;
+    ++obstacle_packets;
+    for (int i = 0; obstacles.is_open() && i < r.count; ++i) {
+      const protocol::ObstacleMm& o = r.obstacles[i];
+      obstacles << f.seq << ',' << r.t_us << ',' << int(r.found) << ',' << i << ',' << o.x_mm * 1e-3
+                << ',' << o.y_mm * 1e-3 << ',' << o.radius_mm * 1e-3 << '\n';
+    }
+    if (!quiet && obstacle_packets % 10 == 1) {
+      std::printf("obst  seq %6u t %10.3f s  %u obstacles", f.seq, r.t_us * 1e-6, r.count);
+      for (int i = 0; i < r.count && i < 4; ++i) {
+        std::printf("  (%.2f, %.2f r %.2f)", r.obstacles[i].x_mm * 1e-3, r.obstacles[i].y_mm * 1e-3,
+                    r.obstacles[i].radius_mm * 1e-3);
+      }
+      std::printf("\n");
+    }
+    return true;
+  }
+};
+
 }  // namespace
 
 int CmdListen(int argc, char** argv) {
   if (argc < 2 || !std::strcmp(argv[1], "--help")) return ListenUsage();
-  std::string source = argv[1], csv_path, status_path;
+  std::string source = argv[1], csv_path, status_path, pose_path, lines_path, obstacles_path;
   long baud = 921600;
   double seconds = 0;
   bool quiet = false;
@@ -148,6 +247,12 @@ int CmdListen(int argc, char** argv) {
       csv_path = argv[++i];
     } else if (a == "--status-csv" && i + 1 < argc) {
       status_path = argv[++i];
+    } else if (a == "--pose-csv" && i + 1 < argc) {
+      pose_path = argv[++i];
+    } else if (a == "--lines-csv" && i + 1 < argc) {
+      lines_path = argv[++i];
+    } else if (a == "--obstacles-csv" && i + 1 < argc) {
+      obstacles_path = argv[++i];
     } else if (a == "--baud" && i + 1 < argc) {
       std::string e;
       if (!ArgIntAs(a, argv[++i], 1, 4000000, baud, e) || !BaudFlag(baud)) {
@@ -187,7 +292,14 @@ int CmdListen(int argc, char** argv) {
                   "packets_dropped,pairs_omni_missing,pairs_persp_missing,pairs_out_of_sync,"
                   "pairs_out_of_order,pairs_torn,calibration_id,lut_id,calibration_state,"
                   "lut_state,rx_errors,command_errors,pipeline_errors,last_proc_us,max_proc_us,"
-                  "fault_flags,rx_overruns,rx_ring_full,rx_line_errors\n";
+                  "fault_flags,rx_overruns,rx_ring_full,rx_line_errors,feature_packets_dropped,"
+                  "line_points_unsent\n";
+  }
+  FieldStreams field;
+  field.quiet = quiet;
+  if (!field.Open(pose_path, lines_path, obstacles_path, err)) {
+    std::fprintf(stderr, "ballvision listen: %s\n", err.c_str());
+    return 1;
   }
   protocol::Decoder decoder;
   protocol::FrameView frame;
@@ -249,8 +361,8 @@ int CmdListen(int argc, char** argv) {
                      << int(st.calibration_state) << ',' << int(st.lut_state) << ',' << st.rx_errors
                      << ',' << st.command_errors << ',' << st.pipeline_errors << ','
                      << st.last_proc_us << ',' << st.max_proc_us << ',' << st.fault_flags << ','
-                     << st.rx_overruns << ',' << st.rx_ring_full << ',' << st.rx_line_errors
-                     << '\n';
+                     << st.rx_overruns << ',' << st.rx_ring_full << ',' << st.rx_line_errors << ','
+                     << st.feature_packets_dropped << ',' << st.line_points_unsent << '\n';
         }
         if (!quiet) {
           std::printf(
@@ -263,6 +375,12 @@ int CmdListen(int argc, char** argv) {
               st.lut_state == 0 ? "ok" : "MISSING/CORRUPT", st.last_proc_us, st.max_proc_us,
               st.rx_overruns, st.rx_ring_full, st.rx_line_errors);
         }
+      } else if (frame.type == protocol::MsgType::kPose) {
+        if (!field.Pose(frame)) ++bad_payloads;
+      } else if (frame.type == protocol::MsgType::kLinePoints) {
+        if (!field.Lines(frame)) ++bad_payloads;
+      } else if (frame.type == protocol::MsgType::kObstacles) {
+        if (!field.Obstacles(frame)) ++bad_payloads;
       } else {
         ++others;
       }
@@ -270,12 +388,16 @@ int CmdListen(int argc, char** argv) {
   }
   if (fd != STDIN_FILENO) close(fd);
   if (InterruptSignal()) ReportInterrupt("ballvision listen");
-  const bool written = FinishListenOutputs(csv, status_csv);
+  const bool field_written = field.Commit();
+  const bool written = FinishListenOutputs(csv, status_csv) && field_written;
   const auto& ds = decoder.stats();
-  std::printf("summary: ball_states=%u status=%u other=%u bad_payloads=%u seq_gaps=%u "
-              "decoder_errors=%u (crc %u, cobs %u, oversize %u, short %u, version %u, length %u)\n",
-              balls, statuses, others, bad_payloads, seq_gaps, ds.errors(), ds.crc_errors,
-              ds.cobs_errors, ds.oversize, ds.short_frames, ds.version_errors, ds.length_errors);
+  std::printf(
+      "summary: ball_states=%u status=%u other=%u bad_payloads=%u seq_gaps=%u "
+      "decoder_errors=%u (crc %u, cobs %u, oversize %u, short %u, version %u, length %u) "
+      "pose=%u lines=%u obstacles=%u\n",
+      balls, statuses, others, bad_payloads, seq_gaps, ds.errors(), ds.crc_errors, ds.cobs_errors,
+      ds.oversize, ds.short_frames, ds.version_errors, ds.length_errors, field.poses,
+      field.line_packets, field.obstacle_packets);
   if (InterruptSignal()) return InterruptExitCode();
   return written && (balls + statuses) > 0 ? 0 : 1;
 }

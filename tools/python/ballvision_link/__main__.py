@@ -1,4 +1,6 @@
-"""python3 -m ballvision_link SOURCE [--csv OUT] [--status-csv OUT] [--plot] [--baud N] [--seconds S]
+"""python3 -m ballvision_link SOURCE [--csv OUT] [--status-csv OUT] [--pose-csv OUT]
+                               [--lines-csv OUT] [--obstacles-csv OUT] [--plot] [--baud N]
+                               [--seconds S]
 
 SOURCE: a serial port (needs pyserial), a file of captured bytes, '-' for stdin, or
 tcp:HOST:PORT. The CSV files have the same columns as `ballvision listen`'s; they are written
@@ -12,7 +14,8 @@ import socket
 import sys
 import time
 
-from .protocol import BallState, Decoder, StatusReport, FLAG_HAS_BOUNCE, FLAG_HAS_PREDICTION
+from .protocol import (BallState, Decoder, LinePoints, Obstacles, Pose, POSE_STATES,
+                       StatusReport, FLAG_HAS_BOUNCE, FLAG_HAS_PREDICTION)
 from .safe_write import SafeOutput
 
 # Same columns as tools/ballvision/states_csv.cpp (StatesCsvHeader(true)) and cmd_listen.cpp.
@@ -22,7 +25,8 @@ STATUS_HEADER = ("seq,uptime_us,frames_processed,frame_rate_hz,frames_dropped,de
                  "packets_dropped,pairs_omni_missing,pairs_persp_missing,pairs_out_of_sync,"
                  "pairs_out_of_order,pairs_torn,calibration_id,lut_id,calibration_state,"
                  "lut_state,rx_errors,command_errors,pipeline_errors,last_proc_us,max_proc_us,"
-                 "fault_flags,rx_overruns,rx_ring_full,rx_line_errors")
+                 "fault_flags,rx_overruns,rx_ring_full,rx_line_errors,feature_packets_dropped,"
+                 "line_points_unsent")
 
 
 class Interrupted(Exception):
@@ -59,7 +63,8 @@ def status_row(st: StatusReport) -> str:
             st.pairs_persp_missing, st.pairs_out_of_sync, st.pairs_out_of_order, st.pairs_torn,
             st.calibration_id, st.lut_id, st.calibration_state, st.lut_state, st.rx_errors,
             st.command_errors, st.pipeline_errors, st.last_proc_us, st.max_proc_us,
-            st.fault_flags, st.rx_overruns, st.rx_ring_full, st.rx_line_errors]
+            st.fault_flags, st.rx_overruns, st.rx_ring_full, st.rx_line_errors,
+            st.feature_packets_dropped, st.line_points_unsent]
     return ",".join(str(v) for v in vals) + "\n"
 
 
@@ -81,6 +86,24 @@ def _open_tcp(source: str):
         except socket.timeout:
             return None
     return read
+
+POSE_COLUMNS = ["seq", "t_us", "state", "x", "y", "heading", "sigma_x", "sigma_y",
+                "sigma_heading", "quality", "ambiguous", "hint_rejected", "usable", "points_used",
+                "inliers"]
+FIELD_HEADERS = {Pose: ",".join(POSE_COLUMNS),
+                 LinePoints: "seq,t_us,found,index,x,y",
+                 Obstacles: "seq,t_us,found,index,x,y,radius"}
+
+
+def _field_rows(msg):
+    """CSV rows of a pose / line-points / obstacles message (one row per point or obstacle)."""
+    if isinstance(msg, Pose):  # state as its number and flags as 0/1, as `ballvision listen`
+        row = [int(v) if isinstance(v, bool) else v for v in (getattr(msg, k) for k in POSE_COLUMNS)]
+        row[2] = POSE_STATES.index(msg.state)
+        return [row]
+    if isinstance(msg, LinePoints):
+        return [[msg.seq, msg.t_us, msg.found, i, x, y] for i, (x, y) in enumerate(msg.points)]
+    return [[msg.seq, msg.t_us, msg.found, i, x, y, r] for i, (x, y, r) in enumerate(msg.obstacles)]
 
 
 def _open(source: str, baud: int):
@@ -120,6 +143,12 @@ class _Listener:
         self.balls = self.statuses = self.others = 0
         self.states = SafeOutput(a.csv) if a.csv else None
         self.status = SafeOutput(a.status_csv) if a.status_csv else None
+        paths = {Pose: a.pose_csv, LinePoints: a.lines_csv, Obstacles: a.obstacles_csv}
+        self.field = {t: SafeOutput(p) if p else None for t, p in paths.items()}
+        self.field_counts = {Pose: 0, LinePoints: 0, Obstacles: 0}
+        for t, out in self.field.items():
+            if out:
+                out.write(FIELD_HEADERS[t] + "\n")
         if self.states:
             self.states.write(STATES_HEADER + "\n")
         if self.status:
@@ -133,6 +162,12 @@ class _Listener:
                 self.states.write(states_row(msg))
             if self.plot and msg.found:
                 _update_plot(self.plot, msg, self.balls)
+        elif type(msg) in self.field:
+            self.field_counts[type(msg)] += 1
+            out = self.field[type(msg)]
+            if out:
+                for row in _field_rows(msg):
+                    out.write(",".join(str(v) for v in row) + "\n")
         elif isinstance(msg, StatusReport):
             self.statuses += 1
             if self.status:
@@ -141,13 +176,14 @@ class _Listener:
                 print(f"status: {msg.frames_processed} frames, {msg.frame_rate_hz:.1f} Hz, "
                       f"dropped {msg.frames_dropped}, overruns {msg.deadline_overruns}, "
                       f"rx lost: uart overrun {msg.rx_overruns}, ring full {msg.rx_ring_full}, "
-                      f"line errors {msg.rx_line_errors}")
+                      f"line errors {msg.rx_line_errors}, feature packets dropped "
+                      f"{msg.feature_packets_dropped}, line points unsent {msg.line_points_unsent}")
         else:
             self.others += 1
 
     def finish(self) -> bool:
         ok = True
-        for out in (self.states, self.status):
+        for out in (self.states, self.status, *self.field.values()):
             if out is None:
                 continue
             try:
@@ -158,7 +194,8 @@ class _Listener:
         d = self.dec
         print(f"summary: ball_states={self.balls} status={self.statuses} other={self.others} "
               f"decoder_errors={sum(d.errors.values())} {d.errors} "
-              f"bytes_discarded={d.bytes_discarded}")
+              f"bytes_discarded={d.bytes_discarded} pose={self.field_counts[Pose]} "
+              f"lines={self.field_counts[LinePoints]} obstacles={self.field_counts[Obstacles]}")
         return ok
 
 
@@ -190,6 +227,9 @@ def main(argv=None) -> int:
     ap.add_argument("source")
     ap.add_argument("--csv", help="write ball states here")
     ap.add_argument("--status-csv", help="write status reports here")
+    ap.add_argument("--pose-csv", help="write pose packets here")
+    ap.add_argument("--lines-csv", help="write line points here (one row per point)")
+    ap.add_argument("--obstacles-csv", help="write obstacles here (one row per obstacle)")
     ap.add_argument("--plot", action="store_true", help="live matplotlib plot of x, y, z")
     ap.add_argument("--quiet", action="store_true", help="no per-status lines")
     ap.add_argument("--baud", type=_baud, default=921600)

@@ -1,5 +1,6 @@
-"""Commands to the coprocessor (core/protocol/commands.h): status request, parameters and
-chunked uploads of the calibration or colour-LUT blob. Each command is answered with an ack
+"""Commands to the coprocessor (core/protocol/commands.h): status request, parameters,
+localisation hints (field half, odometry, pose) and chunked uploads of the calibration or
+colour-LUT blob. Each command is answered with an ack
 (type 0x10) or an error (type 0x11: cmd_type u8 | cmd_seq u32 | code u8 | detail u32)."""
 import struct
 import zlib
@@ -9,6 +10,7 @@ from .protocol import encode_frame
 
 MSG_ACK, MSG_ERROR = 0x10, 0x11
 REQUEST_STATUS, SET_PARAM, UPLOAD_BEGIN, UPLOAD_CHUNK, UPLOAD_COMMIT = 0x20, 0x21, 0x22, 0x23, 0x24
+SET_FIELD_HALF, ODOMETRY, SET_POSE = 0x25, 0x26, 0x27
 TARGET_CALIBRATION, TARGET_LUT = 1, 2
 MAX_CHUNK = 512
 ERRORS = {1: "unknown command", 2: "bad length", 3: "bad target", 4: "no upload", 5: "bad offset",
@@ -22,6 +24,23 @@ def request_status(seq: int) -> bytes:
 
 def set_param(seq: int, param_id: int, value: float) -> bytes:
     return encode_frame(SET_PARAM, seq, struct.pack("<Hf", param_id, value))
+
+
+def set_field_half(seq: int, half: int) -> bytes:
+    """Which half the robot is in (sign of its field x): -1, +1, or 0 to clear the hint."""
+    if half not in (-1, 0, 1):
+        raise ValueError("half must be -1, 0 or 1")
+    return encode_frame(SET_FIELD_HALF, seq, struct.pack("<b", half))
+
+
+def odometry(seq: int, dx: float, dy: float, dheading: float) -> bytes:
+    """Robot motion since the previous frame (m, m, rad; robot frame of the previous pose)."""
+    return encode_frame(ODOMETRY, seq, struct.pack("<3f", dx, dy, dheading))
+
+
+def set_pose(seq: int, x: float, y: float, heading: float, known: bool = True) -> bytes:
+    """The robot's field pose (m, m, rad: field angle of the robot's +y); known=False forgets it."""
+    return encode_frame(SET_POSE, seq, struct.pack("<B3f", 1 if known else 0, x, y, heading))
 
 
 def upload(seq: int, target: int, blob: bytes, chunk: int = MAX_CHUNK) -> List[bytes]:

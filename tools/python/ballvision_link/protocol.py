@@ -3,11 +3,14 @@ import math
 import struct
 import zlib
 from dataclasses import dataclass
-from typing import List, Optional
+from typing import List, Optional, Tuple
 
 VERSION = 1
 MSG_BALL_STATE = 0x01
 MSG_STATUS = 0x02
+MSG_POSE = 0x03
+MSG_LINE_POINTS = 0x04
+MSG_OBSTACLES = 0x05
 HEADER = struct.Struct("<BBHIH")
 MAX_PAYLOAD = 1024
 # Receive limits of core/protocol's Decoder (kMaxRawFrameBytes, kMaxWireFrameBytes): a frame
@@ -25,15 +28,26 @@ _SCHEMA = (
     "packets_dropped pairs_omni_missing pairs_persp_missing pairs_out_of_sync pairs_out_of_order "
     "pairs_torn calibration_id lut_id u32,calibration_state lut_state u8,reserved u16,"
     "rx_errors command_errors pipeline_errors last_proc_us max_proc_us fault_flags u32,"
-    "rx_overruns rx_ring_full rx_line_errors u32")
+    "rx_overruns rx_ring_full rx_line_errors u32,feature_packets_dropped line_points_unsent u32;"
+    "pose:t_us u64,state u8,flags u8,points_used inliers u16,x y heading f32,"
+    "sigma_x sigma_y sigma_heading f32,quality f32;"
+    "lines:t_us u64,found u16,count u8,reserved u8,count*(x_mm y_mm i16);"
+    "obstacles:t_us u64,found count u8,count*(x_mm y_mm i16,radius_mm u16)")
 SCHEMA_HASH = zlib.crc32(_SCHEMA.encode()) & 0xFFFF
 
 MODES = ("none", "rolling", "flying", "bouncing")
 FLAG_SEEN_OMNI, FLAG_SEEN_PERSP, FLAG_HAS_BOUNCE, FLAG_HAS_PREDICTION = 1, 2, 1 << 11, 1 << 12
 
 _BALL = struct.Struct("<QHBB3f3ff2f2fQ2fI3fI")
-_STATUS = struct.Struct("<Q12IBBH9I")
-assert _BALL.size == 92 and _STATUS.size == 96
+_STATUS = struct.Struct("<Q12IBBH11I")
+_POSE = struct.Struct("<QBBHH7f")
+_LINES_HEAD = struct.Struct("<QHBB")
+_OBSTACLES_HEAD = struct.Struct("<QBB")
+assert _BALL.size == 92 and _STATUS.size == 104 and _POSE.size == 42
+assert _LINES_HEAD.size == 12 and _OBSTACLES_HEAD.size == 10
+MAX_LINE_POINTS, MAX_OBSTACLES = 64, 16
+POSE_STATES = ("unknown", "searching", "tracking", "coasting")
+POSE_AMBIGUOUS, POSE_HINT_REJECTED, POSE_USABLE = 1, 2, 4
 
 
 @dataclass
@@ -91,6 +105,46 @@ class StatusReport:
     rx_overruns: int
     rx_ring_full: int
     rx_line_errors: int
+    feature_packets_dropped: int
+    line_points_unsent: int
+
+
+@dataclass
+class Pose:
+    """Self-localisation: field frame (origin centre spot, m); heading of the robot's +y."""
+    seq: int
+    t_us: int
+    state: str
+    ambiguous: bool
+    hint_rejected: bool
+    usable: bool
+    points_used: int
+    inliers: int
+    x: float
+    y: float
+    heading: float
+    sigma_x: float
+    sigma_y: float
+    sigma_heading: float
+    quality: float
+
+
+@dataclass
+class LinePoints:
+    """Floor points on field lines, robot frame, metres (sent as int16 mm)."""
+    seq: int
+    t_us: int
+    found: int  # found by the coprocessor this frame; len(points) of them were sent
+    points: List[Tuple[float, float]]
+
+
+@dataclass
+class Obstacles:
+    """Obstacle footprints: (x, y, radius) in metres, robot frame."""
+    seq: int
+    t_us: int
+    found: int
+    obstacles: List[Tuple[float, float, float]]
 
 
 def cobs_encode(data: bytes) -> bytes:
@@ -158,6 +212,51 @@ def parse_status(seq: int, payload: bytes) -> Optional[StatusReport]:
     return StatusReport(seq, *v)
 
 
+def parse_pose(seq: int, payload: bytes) -> Optional[Pose]:
+    if len(payload) != _POSE.size:
+        return None
+    t_us, state, flags, used, inliers, *f = _POSE.unpack(payload)
+    if state >= len(POSE_STATES) or flags & ~7 or inliers > used:
+        return None
+    usable = bool(flags & POSE_USABLE)
+    if usable and not all(math.isfinite(v) for v in f[:6]):
+        return None
+    if not 0.0 <= f[6] <= 1.0:
+        return None
+    return Pose(seq, t_us, POSE_STATES[state], bool(flags & POSE_AMBIGUOUS),
+                bool(flags & POSE_HINT_REJECTED), usable, used, inliers, *f)
+
+
+def parse_line_points(seq: int, payload: bytes) -> Optional[LinePoints]:
+    if len(payload) < _LINES_HEAD.size:
+        return None
+    t_us, found, count, reserved = _LINES_HEAD.unpack_from(payload)
+    if count > MAX_LINE_POINTS or count > found or reserved or \
+            len(payload) != _LINES_HEAD.size + 4 * count:
+        return None
+    xy = struct.unpack_from(f"<{2 * count}h", payload, _LINES_HEAD.size)
+    return LinePoints(seq, t_us, found,
+                      [(xy[2 * i] / 1000.0, xy[2 * i + 1] / 1000.0) for i in range(count)])
+
+
+def parse_obstacles(seq: int, payload: bytes) -> Optional[Obstacles]:
+    if len(payload) < _OBSTACLES_HEAD.size:
+        return None
+    t_us, found, count = _OBSTACLES_HEAD.unpack_from(payload)
+    if count > MAX_OBSTACLES or count > found or len(payload) != _OBSTACLES_HEAD.size + 6 * count:
+        return None
+    v = struct.unpack_from("<" + "hhH" * count, payload, _OBSTACLES_HEAD.size)
+    return Obstacles(seq, t_us, found, [(v[3 * i] / 1000.0, v[3 * i + 1] / 1000.0,
+                                         v[3 * i + 2] / 1000.0) for i in range(count)])
+
+
+_PARSERS = {MSG_BALL_STATE: parse_ball_state,
+            MSG_STATUS: parse_status,
+            MSG_POSE: parse_pose,
+            MSG_LINE_POINTS: parse_line_points,
+            MSG_OBSTACLES: parse_obstacles}
+
+
 class Decoder:
     """Streaming decoder: feed() bytes, get verified messages; corrupt frames are counted."""
 
@@ -220,12 +319,10 @@ class Decoder:
             self.errors["length"] += 1
             return None
         self.frames_ok += 1
-        if mtype == MSG_BALL_STATE:
-            msg = parse_ball_state(seq, payload)
-        elif mtype == MSG_STATUS:
-            msg = parse_status(seq, payload)
-        else:
+        parser = _PARSERS.get(mtype)
+        if parser is None:
             return (mtype, seq, payload)
+        msg = parser(seq, payload)
         if msg is None:
             self.errors["payload"] += 1
         return msg

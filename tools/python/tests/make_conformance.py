@@ -17,7 +17,7 @@ OUT = os.path.join(os.path.dirname(__file__), "..", "..", "..", "host_tests", "d
                    "protocol_conformance.json")
 BALL, STATUS = 0x01, 0x02
 BALL_FMT = struct.Struct("<QHBB3f3ff2f2fQ2fI3fI")
-STATUS_FMT = struct.Struct("<Q12IBBH9I")
+STATUS_FMT = struct.Struct("<Q12IBBH11I")
 
 
 def raw(mtype, seq, payload, version=1, schema=SCHEMA_HASH, length=None, crc_xor=0):
@@ -37,7 +37,7 @@ def ball(t_us=1000000, flags=3, mode=1, found=1, x=0.25):
 
 def status(cal_state=0, lut_state=0):
     return STATUS_FMT.pack(5000000, 30, 30000, 0, 0, 0, 0, 0, 0, 0, 0, 0x1234, 0x5678,
-                           cal_state, lut_state, 0, 0, 0, 0, 100, 200, 0, 0, 0, 0)
+                           cal_state, lut_state, 0, 0, 0, 0, 100, 200, 0, 0, 0, 0, 0, 0)
 
 
 def case(name, data, msgs=(), **counters):

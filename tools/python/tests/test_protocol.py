@@ -6,8 +6,11 @@ import sys
 import unittest
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
-from ballvision_link import BallState, Decoder, StatusReport, cobs_decode, cobs_encode  # noqa
-from ballvision_link.protocol import encode_frame, MSG_BALL_STATE  # noqa
+import struct  # noqa: E402
+from ballvision_link import (BallState, Decoder, LinePoints, Obstacles, Pose,  # noqa: E402
+                             StatusReport, cobs_decode, cobs_encode)
+from ballvision_link.protocol import (encode_frame, MSG_BALL_STATE, MSG_LINE_POINTS,  # noqa
+                                      MSG_OBSTACLES, MSG_POSE)
 
 FIXTURE = os.path.join(os.path.dirname(__file__), "..", "..", "..", "host_tests", "data",
                        "protocol_golden.bin")
@@ -17,8 +20,8 @@ class ProtocolTest(unittest.TestCase):
     def test_decodes_cpp_stream(self):
         data = open(FIXTURE, "rb").read()
         msgs = list(Decoder().feed(data))
-        self.assertEqual(len(msgs), 2)
-        ball, status = msgs
+        self.assertEqual(len(msgs), 5)
+        ball, status = msgs[:2]
         self.assertIsInstance(ball, BallState)
         self.assertEqual(ball.seq, 41)
         self.assertEqual(ball.t_us, 1000000)
@@ -32,6 +35,54 @@ class ProtocolTest(unittest.TestCase):
         self.assertEqual(status.calibration_id, 0x1234)
         self.assertEqual((status.rx_overruns, status.rx_ring_full, status.rx_line_errors),
                          (1, 2, 3))
+        self.assertEqual((status.feature_packets_dropped, status.line_points_unsent), (4, 5))
+
+    def test_decodes_cpp_field_packets(self):
+        # protocol_test.cpp: SamplePose(), SampleFeatures(3 lines, 2 obstacles) at t = 1 s.
+        pose, obstacles, lines = list(Decoder().feed(open(FIXTURE, "rb").read()))[2:]
+        self.assertIsInstance(pose, Pose)
+        self.assertEqual((pose.seq, pose.t_us, pose.state), (43, 1000000, "tracking"))
+        self.assertEqual((pose.x, pose.y, pose.heading), (1.5, -2.25, 0.5))
+        self.assertEqual((pose.sigma_x, pose.sigma_y, pose.sigma_heading), (0.0625, 0.125,
+                                                                            0.03125))
+        self.assertEqual((pose.quality, pose.points_used, pose.inliers), (0.75, 40, 33))
+        self.assertTrue(pose.ambiguous)
+        self.assertFalse(pose.hint_rejected)
+        self.assertIsInstance(obstacles, Obstacles)
+        self.assertEqual((obstacles.seq, obstacles.found), (44, 2))
+        self.assertEqual(obstacles.obstacles, [(1.0, -0.5, 0.25), (2.0, -1.0, 0.25)])
+        self.assertIsInstance(lines, LinePoints)
+        self.assertEqual((lines.seq, lines.found), (45, 3))
+        self.assertEqual(lines.points, [(-1.0, 2.0), (-0.75, 1.875), (-0.5, 1.75)])
+
+    def test_field_packets_round_trip_and_bad_payloads(self):
+        dec = Decoder()
+        pose = struct.pack("<QBBHH7f", 5, 3, 4, 10, 8, 1, 2, 0.5, 0.1, 0.1, 0.01, 0.5)
+        lines = struct.pack("<QHBB", 6, 70, 2, 0) + struct.pack("<4h", 1000, -2000, 32767, -32768)
+        obst = struct.pack("<QBB", 7, 1, 1) + struct.pack("<hhH", -1500, 500, 300)
+        msgs = list(dec.feed(encode_frame(MSG_POSE, 1, pose) + encode_frame(MSG_LINE_POINTS, 2, lines)
+                             + encode_frame(MSG_OBSTACLES, 3, obst)))
+        self.assertEqual(len(msgs), 3)
+        self.assertEqual((msgs[0].state, msgs[0].usable, msgs[0].ambiguous), ("coasting", True,
+                                                                               False))
+        self.assertEqual(msgs[1].points, [(1.0, -2.0), (32.767, -32.768)])
+        self.assertEqual(msgs[1].found, 70)
+        self.assertEqual(msgs[2].obstacles, [(-1.5, 0.5, 0.3)])
+        nan = float("nan")
+        bad = [
+            (MSG_POSE, pose[:-1]),  # truncated
+            (MSG_POSE, struct.pack("<QBBHH7f", 5, 4, 0, 1, 1, 0, 0, 0, 0, 0, 0, 0)),  # state
+            (MSG_POSE, struct.pack("<QBBHH7f", 5, 2, 4, 1, 1, nan, 0, 0, 0, 0, 0, 0)),  # NaN
+            (MSG_POSE, struct.pack("<QBBHH7f", 5, 2, 0, 1, 2, 0, 0, 0, 0, 0, 0, 0)),  # inliers
+            (MSG_LINE_POINTS, lines[:-2]),  # truncated
+            (MSG_LINE_POINTS, struct.pack("<QHBB", 6, 1, 2, 0) + lines[12:]),  # count > found
+            (MSG_LINE_POINTS, struct.pack("<QHBB", 6, 300, 65, 0) + b"\x01" * 260),  # > 64
+            (MSG_OBSTACLES, obst + b"\x00"),  # oversize
+            (MSG_OBSTACLES, struct.pack("<QBB", 7, 40, 17) + b"\x01" * 102),  # > 16
+        ]
+        before = dec.errors["payload"]
+        self.assertEqual(list(dec.feed(b"".join(encode_frame(t, 9, p) for t, p in bad))), [])
+        self.assertEqual(dec.errors["payload"] - before, len(bad))
 
     def test_python_encoder_matches_cpp_bytes(self):
         data = open(FIXTURE, "rb").read()
@@ -77,3 +128,17 @@ class CommandsTest(unittest.TestCase):
         self.assertEqual([m[0] for m in msgs], [0x22, 0x23, 0x23, 0x23, 0x24])
         self.assertEqual([m[1] for m in msgs], list(range(10, 15)))
         self.assertEqual(b"".join(m[2][5:] for m in msgs[1:4]), blob)
+
+    def test_pose_hint_commands(self):
+        from ballvision_link import commands
+        frames = [commands.set_field_half(1, -1), commands.odometry(2, 0.1, 0.0, -0.5),
+                  commands.set_pose(3, 1.0, -2.0, 0.5), commands.set_pose(4, 0, 0, 0, known=False)]
+        msgs = list(Decoder().feed(b"".join(frames)))
+        self.assertEqual([m[0] for m in msgs], [0x25, 0x26, 0x27, 0x27])
+        self.assertEqual(msgs[0][2], b"\xff")
+        self.assertEqual(struct.unpack("<3f", msgs[1][2]), (struct.unpack("<f", struct.pack(
+            "<f", 0.1))[0], 0.0, -0.5))
+        self.assertEqual(struct.unpack("<B3f", msgs[2][2]), (1, 1.0, -2.0, 0.5))
+        self.assertEqual(msgs[3][2][0], 0)
+        with self.assertRaises(ValueError):
+            commands.set_field_half(5, 2)
