@@ -51,22 +51,27 @@ struct Reply {
   CommandError error;
 };
 
+// One command through `h`, its reply decoded (no reply: reported as a status stand-in).
+Reply Exchange(CommandHandler& h, const FrameView& f, CommandResult* result = nullptr) {
+  std::array<uint8_t, kMaxWireFrameBytes> reply{};
+  size_t len = 0;
+  const CommandResult res = h.Handle(f, 0, reply, len);
+  if (result != nullptr) *result = res;
+  if (len == 0) return {MsgType::kStatus, CommandError::kNone};
+  Decoder d;
+  FrameView r;
+  bool got = false;
+  for (size_t i = 0; i < len; ++i) got |= d.Push(reply[i], r);
+  EXPECT_TRUE(got);
+  Reply out{r.type, CommandError::kNone};
+  if (r.type == MsgType::kError) out.error = static_cast<CommandError>(r.payload[5]);
+  return out;
+}
+
 class CommandsTest : public ::testing::Test {
  protected:
   Reply Send(MsgType type, std::span<const uint8_t> payload) {
-    FrameView f{type, seq_++, payload};
-    std::array<uint8_t, kMaxWireFrameBytes> reply{};
-    size_t len = 0;
-    last_ = handler_.Handle(f, 0, reply, len);
-    if (len == 0) return {MsgType::kStatus, CommandError::kNone};
-    Decoder d;
-    FrameView r;
-    bool got = false;
-    for (size_t i = 0; i < len; ++i) got |= d.Push(reply[i], r);
-    EXPECT_TRUE(got);
-    Reply out{r.type, CommandError::kNone};
-    if (r.type == MsgType::kError) out.error = static_cast<CommandError>(r.payload[5]);
-    return out;
+    return Exchange(handler_, FrameView{type, seq_++, payload}, &last_);
   }
   Reply Begin(size_t len, uint32_t crc, uint8_t target = 1) {
     uint8_t p[9];
@@ -213,18 +218,7 @@ class PoseCommandsTest : public CommandsTest {
     return Send2(MsgType::kSetPose, p);
   }
   Reply Send2(MsgType type, std::span<const uint8_t> payload) {
-    FrameView f{type, 1, payload};
-    std::array<uint8_t, kMaxWireFrameBytes> reply{};
-    size_t len = 0;
-    pose_handler_.Handle(f, 0, reply, len);
-    Decoder d;
-    FrameView r;
-    bool got = false;
-    for (size_t i = 0; i < len; ++i) got |= d.Push(reply[i], r);
-    EXPECT_TRUE(got);
-    Reply out{r.type, CommandError::kNone};
-    if (r.type == MsgType::kError) out.error = static_cast<CommandError>(r.payload[5]);
-    return out;
+    return Exchange(pose_handler_, FrameView{type, 1, payload});
   }
   PoseRecorder rec_;
   CommandHandler pose_handler_{sink_, params_, &rec_};

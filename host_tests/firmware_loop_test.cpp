@@ -277,19 +277,7 @@ TEST_F(MainLoopTest, ValidLutBlobIsLoadedAndItsIdReported) {
 }
 
 TEST_F(MainLoopTest, WithCalibrationAndLutThePipelineRunsOnEveryPair) {
-  static ColorLut lut;
-  cli::FillRuleLut(lut);
-  RigCalibration cal = cli::MakeDemoCalibration();
-  cal.lut_id = lut.Id();
-  static uint8_t blob[kColorLutBlobBytes];
-  const Result<size_t> cal_bytes = SerializeCalibration(cal, blob);
-  ASSERT_TRUE(cal_bytes.ok()) << cal_bytes.status().message();
-  hal::BlobStore cal_store(storage_, 0, 1, BlobKind::kCalibration, kCalibrationBlobVersion);
-  ASSERT_TRUE(cal_store.Save(std::span<const uint8_t>(blob, *cal_bytes), scratch_).ok());
-  const Result<size_t> lut_bytes = SerializeLut(lut, blob);
-  ASSERT_TRUE(lut_bytes.ok());
-  hal::BlobStore lut_store(storage_, 2, 3, BlobKind::kColorLut, kColorLutBlobVersion);
-  ASSERT_TRUE(lut_store.Save(std::span<const uint8_t>(blob, *lut_bytes), scratch_).ok());
+  InstallDemoBlobs();
 
   camera_.AddRegular(5, 33333);
   camera_.Add({5 * 33333, hal::kPairPerspMissing, 0});  // the pipeline copes with one camera
