@@ -195,11 +195,13 @@ class MainLoopTest : public ::testing::Test {
     loop_->RunUntilFinished();
   }
   // A valid demo calibration and the rule LUT in storage: the pipeline runs (field features on).
-  void InstallDemoBlobs() {
+  void InstallDemoBlobs(uint32_t* calibration_id = nullptr, uint32_t* lut_id = nullptr) {
     static ColorLut lut;
     cli::FillRuleLut(lut);
     RigCalibration cal = cli::MakeDemoCalibration();
     cal.lut_id = lut.Id();
+    if (calibration_id != nullptr) *calibration_id = cal.calibration_id;
+    if (lut_id != nullptr) *lut_id = cal.lut_id;
     static uint8_t blob[kColorLutBlobBytes];
     const Result<size_t> cal_bytes = SerializeCalibration(cal, blob);
     ASSERT_TRUE(cal_bytes.ok()) << cal_bytes.status().message();
@@ -277,7 +279,8 @@ TEST_F(MainLoopTest, ValidLutBlobIsLoadedAndItsIdReported) {
 }
 
 TEST_F(MainLoopTest, WithCalibrationAndLutThePipelineRunsOnEveryPair) {
-  InstallDemoBlobs();
+  uint32_t calibration_id = 0, lut_id = 0;
+  InstallDemoBlobs(&calibration_id, &lut_id);
 
   camera_.AddRegular(5, 33333);
   camera_.Add({5 * 33333, hal::kPairPerspMissing, 0});  // the pipeline copes with one camera
@@ -287,8 +290,8 @@ TEST_F(MainLoopTest, WithCalibrationAndLutThePipelineRunsOnEveryPair) {
   EXPECT_EQ(d.balls, 6);
   const protocol::StatusReport& s = d.last_status;
   EXPECT_EQ(s.calibration_state, static_cast<uint8_t>(protocol::BlobState::kOk));
-  EXPECT_EQ(s.calibration_id, cal.calibration_id);
-  EXPECT_EQ(s.lut_id, lut.Id());
+  EXPECT_EQ(s.calibration_id, calibration_id);
+  EXPECT_EQ(s.lut_id, lut_id);
   EXPECT_EQ(s.pipeline_errors, 0u);
   EXPECT_EQ(s.fault_flags & kFaultPipelineNotReady, 0u);
 }
