@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include <cstdio>
+#include <cstdlib>
 #include "core/color_lut/color_lut.h"
 
 namespace bv {
@@ -67,6 +69,28 @@ Result<Ray> OmniRay(const OmniCalibration& cal, float u_px, float v_px) {
   out.dir =
       Eigen::Vector3f(std::sin(a) * std::cos(theta), std::sin(a) * std::sin(theta), -std::cos(a));
   return out;
+}
+
+// Angular noise of an omni ray: the centroid noise (grown with the region) converted by the
+// mirror's local scale, radially (elevation, from the neighbouring pixel's ray) and tangentially
+// (azimuth: one pixel is 1/rho of a turn, scaled by the ray's horizontal extent).
+void OmniRaySigma(const OmniCalibration& cal, const BallDetection& det, const Ray& ray,
+                  const PipelineConfig& config, BallRay& out) {
+  const float du = det.u_px - cal.center_u, dv = det.v_px - cal.center_v;
+  const float rho = std::max(std::hypot(du, dv), 1.0f);
+  const float s_px = config.omni_sigma_px + config.omni_sigma_per_radius * det.radius_px;
+  const float horiz = std::hypot(ray.dir.x(), ray.dir.y());
+  const float s_az = s_px * std::max(horiz, 0.05f) / rho;
+  out.sigma_h_rad = std::hypot(s_az, config.omni_azimuth_sigma_rad * horiz);
+  float per_px = 0.01f;  // fallback: ~0.6 deg per pixel
+  for (const float step : {-1.0f, 1.0f}) {
+    auto n = OmniRay(cal, det.u_px + step * du / rho, det.v_px + step * dv / rho);
+    if (n.ok()) {
+      per_px = AngleBetween(ray.dir, n->dir);
+      break;
+    }
+  }
+  out.sigma_v_rad = s_px * std::clamp(per_px, 1e-4f, 0.05f);
 }
 
 // Feature rays out to the line range (max_line_range_m; a 12.5 cm line is under a pixel wide
@@ -371,28 +395,54 @@ Status Pipeline::Process(const FrameInput& in, BallState& out) {
     }
   }
 
-  // The filter's view of this instant (used by the fallbacks).
-  Eigen::Vector3f p_pred, v_pred;
-  BallMode mode_pred = BallMode::kNone;
-  BallState probe;
-  filter_.FillState(in.t_us, 0, probe);
-  const bool have_pred = probe.found && filter_.StateAt(in.t_us, p_pred, v_pred, mode_pred);
-
-  // 5. Triangulation, or a one-camera fallback.
-  BallMeasurement m;
-  m.t_us = in.t_us;
-  bool have_m = false;
+  // 5. What this frame contributes to the filter: every usable ray with its angular noise (the
+  // centroid's, grown with the region: partial classification moves it by a fraction of the
+  // radius), the persp ray with its apparent-size range as a weak cue. The two-ray midpoint (the
+  // paper's eq. 2) and its gap decide whether the two detections are the same ball.
+  BallObservation obs;
+  obs.t_us = in.t_us;
+  BallRay omni_ray, persp_ray;
+  if (have_o) {
+    omni_ray.origin = ray_o.origin;
+    omni_ray.dir = ray_o.dir;
+    omni_ray.camera = 0;
+    OmniRaySigma(cal.omni, out.omni, ray_o, config_, omni_ray);
+  }
+  if (have_p) {
+    persp_ray.origin = ray_p.origin;
+    persp_ray.dir = ray_p.dir;
+    persp_ray.camera = 1;
+    const float s =
+        (config_.persp_sigma_px + config_.persp_sigma_per_radius * out.persp.radius_px) /
+        std::max(cal.persp.fx, 1.0f);
+    persp_ray.sigma_h_rad = persp_ray.sigma_v_rad = s;
+    if (out.persp.radius_px > 0.5f) {
+      auto rim = PerspPixelToRay(cal.persp, out.persp.u_px + out.persp.radius_px, out.persp.v_px);
+      if (rim.ok()) {
+        auto q = PointFromApparentSize(ray_p, AngleBetween(ray_p.dir, rim->dir), r);
+        if (q.ok()) {
+          persp_ray.range_m = ClosestDepthOnRay(ray_p, *q);
+          persp_ray.range_sigma_m =
+              persp_ray.range_m * (config_.size_range_rel + 0.7f / out.persp.radius_px);
+        }
+      }
+    }
+  }
+  bool same_ball = true;
   if (have_o && have_p) {
     auto tri = TriangulateRays(ray_p, ray_o, config_.triangulation);
-    if (tri.ok() && tri->gap_m <= config_.max_ray_gap_m) {
-      m.p_m = tri->point;
+    if (tri.ok()) {
       out.ray_gap_m = tri->gap_m;
-      out.flags |= kFlagTriangulated;
-      have_m = true;
-    } else if (!tri.ok() && tri.status().code() == StatusCode::kOutOfRange) {
-      out.flags |= kFlagRaysParallel;
+      if (tri->gap_m <= config_.max_ray_gap_m) {
+        out.flags |= kFlagTriangulated;
+        meas_.valid = true;
+        meas_.p_m = tri->point;
+      } else {
+        same_ball = false;
+      }
+    } else if (tri.status().code() == StatusCode::kOutOfRange) {
+      out.flags |= kFlagRaysParallel;  // both rays still go to the filter: it weighs them
     }
-    if (!have_m && tri.ok()) out.ray_gap_m = tri->gap_m;  // reported, but not used
   }
   if (have_o) {
     auto g = IntersectRayWithPlaneZ(ray_o, r);
@@ -401,39 +451,33 @@ Status Pipeline::Process(const FrameInput& in, BallState& out) {
       meas_.omni_ground_m = *g;
     }
   }
-  if (!have_m && have_o) {
-    // A flying ball seen by the omni camera only: its ray at the predicted height, z unknown.
-    const bool airborne = have_pred && mode_pred != BallMode::kRolling &&
-                          p_pred.z() > r + config_.filter.roll_tolerance_m &&
-                          p_pred.z() < cal.omni.viewpoint_z_m - 0.05f;
-    auto p = IntersectRayWithPlaneZ(ray_o, airborne ? p_pred.z() : r);
-    if (p.ok()) {
-      m.p_m = *p;
-      m.z_valid = !airborne;
-      out.flags |= kFlagOmniGroundFallback;
-      have_m = true;
-    }
+  if (same_ball) {
+    if (have_o) obs.rays[obs.n_rays++] = omni_ray;
+    if (have_p) obs.rays[obs.n_rays++] = persp_ray;
+  } else {
+    // Two different objects: the one nearer the prediction (or the omni one, which sees the
+    // whole field) goes in; the filter's gate has the final word.
+    obs.rays[obs.n_rays++] = omni_ray;
   }
-  if (!have_m && have_p && out.persp.radius_px > 0.5f) {
-    auto rim = PerspPixelToRay(cal.persp, out.persp.u_px + out.persp.radius_px, out.persp.v_px);
-    if (rim.ok()) {
-      auto p = PointFromApparentSize(ray_p, AngleBetween(ray_p.dir, rim->dir), r);
-      if (p.ok()) {
-        m.p_m = *p;
-        out.flags |= kFlagPerspSizeFallback;
-        have_m = true;
-      }
-    }
+  if (obs.n_rays == 1) {
+    out.flags |= obs.rays[0].camera == 0 ? kFlagOmniGroundFallback : kFlagPerspSizeFallback;
+  }
+  if (!meas_.valid && obs.n_rays == 1 && obs.rays[0].camera == 0 && meas_.omni_ground_valid) {
+    meas_.valid = true;
+    meas_.p_m = meas_.omni_ground_m;
+    meas_.z_valid = false;
+  } else if (!meas_.valid && obs.n_rays == 1 && persp_ray.range_m > 0.f) {
+    meas_.valid = true;
+    meas_.p_m = persp_ray.origin + persp_ray.dir * persp_ray.range_m;
   }
 
   // 6. Filter, then the state at the exposure time and the prediction.
-  if (have_m) {
-    const uint16_t f = filter_.Update(m);
-    meas_.valid = true;
-    meas_.p_m = m.p_m;
-    meas_.z_valid = m.z_valid;
+  if (obs.n_rays > 0) {
+    const uint16_t f = filter_.Update(obs);
     meas_.filter_flags = f;
-    if (f) ++stats_.rejected_measurements;
+    if (f & (kFlagOutlierRejected | kFlagOutOfField | kFlagBadTimestamp)) {
+      ++stats_.rejected_measurements;
+    }
     out.flags |= f;
   }
   filter_.FillState(in.t_us, config_.predict_ahead_us, out);

@@ -1,5 +1,10 @@
+// The ray-space ball filter on synthetic ray sequences with exact truth: a ball simulated like the
+// renderer's (gravity, quadratic drag, restitution, rolling deceleration), seen by an omni camera
+// (viewpoint at 0.776 m) and a perspective camera at (0, 0.151, 0.45) m, the reference rig, through
+// rays with angular noise (omni 4 mrad, persp 1.5 mrad: half a pixel at 5 m on that rig).
 #include "core/ball_filter/ball_filter.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <vector>
@@ -11,302 +16,475 @@ namespace {
 
 constexpr float kR = 0.11f;
 constexpr float kG = 9.81f;
+constexpr float kDrag = 0.0133f;
+const Eigen::Vector3f kOmni(0.f, 0.f, 0.776f);  // the reference rig's mirror viewpoint
+const Eigen::Vector3f kPersp(0.f, 0.151f, 0.45f);
 
-uint64_t FrameUs(int k) { return static_cast<uint64_t>(std::llround(k * 1e6 / 30.0)); }
+uint64_t FrameUs(int k) { return 1000000u + static_cast<uint64_t>(std::llround(k * 1e6 / 30.0)); }
 
-BallMeasurement Meas(uint64_t t_us, float x, float y, float z) {
-  BallMeasurement m;
-  m.t_us = t_us;
-  m.p_m = Eigen::Vector3f(x, y, z);
-  return m;
+// Deterministic noise in [-1, 1] (uniform, sigma 0.577).
+float Noise(int k, int axis) {
+  const uint32_t h = static_cast<uint32_t>(k * 2654435761u) ^ static_cast<uint32_t>(axis * 40503u);
+  return static_cast<float>((h >> 8) % 2001u) / 1000.f - 1.f;
 }
 
-// Deterministic small noise in [-a, a].
-float Noise(int k, int axis, float a) {
-  const uint32_t h = static_cast<uint32_t>(k * 2654435761u) ^ static_cast<uint32_t>(axis * 40503u);
-  return a * (static_cast<float>((h >> 8) % 2001u) / 1000.f - 1.f);
+// Ball physics with the filter's models (contact: vz' = -b vz, horizontal * tangential).
+struct Sim {
+  Eigen::Vector3f p, v;
+  float b = 0.7f, tangential = 0.8f, rolling_decel = 0.6f;
+  int bounces = 0;
+  std::vector<double> contacts_s;
+  double t = 0;
+  void Step(float dt) {
+    const int n = 200;
+    const float h = dt / n;
+    for (int i = 0; i < n; ++i, t += h) {
+      const bool rolling = p.z() <= kR + 1e-6f && std::fabs(v.z()) < 1e-6f;
+      if (rolling) {
+        const float s = std::hypot(v.x(), v.y());
+        if (s < 1e-4f) {
+          v.setZero();
+          continue;
+        }
+        const float d = rolling_decel + kDrag * s * s;
+        const float ns = std::max(0.f, s - d * h);
+        p.x() += v.x() * h * 0.5f * (1 + ns / s);
+        p.y() += v.y() * h * 0.5f * (1 + ns / s);
+        v.x() *= ns / s;
+        v.y() *= ns / s;
+        continue;
+      }
+      const Eigen::Vector3f a = -kDrag * v.norm() * v - Eigen::Vector3f(0, 0, kG);
+      v += a * h;
+      p += v * h;
+      if (p.z() < kR && v.z() < 0) {
+        contacts_s.push_back(t);
+        p.z() = kR;
+        v.x() *= tangential;
+        v.y() *= tangential;
+        v.z() = -b * v.z();
+        if (v.z() < 0.5f) v.z() = 0;
+        ++bounces;
+      }
+    }
+  }
+};
+
+BallRay RayTo(const Eigen::Vector3f& origin, const Eigen::Vector3f& p, uint8_t camera,
+              float sigma_rad, int k) {
+  BallRay r;
+  r.origin = origin;
+  Eigen::Vector3f d = (p - origin).normalized();
+  // Noise across the ray, scaled so that its standard deviation is sigma_rad.
+  Eigen::Vector3f e1 = Eigen::Vector3f(-d.y(), d.x(), 0.f);
+  if (e1.norm() < 1e-3f) e1 = Eigen::Vector3f::UnitX();
+  e1.normalize();
+  const Eigen::Vector3f e2 =
+      Eigen::Vector3f(d.y() * e1.z() - d.z() * e1.y(), d.z() * e1.x() - d.x() * e1.z(),
+                      d.x() * e1.y() - d.y() * e1.x());
+  const float a = sigma_rad * 1.732f;
+  d = (d + e1 * (a * Noise(k, 3 * camera)) + e2 * (a * Noise(k, 3 * camera + 1))).normalized();
+  r.dir = d;
+  r.sigma_h_rad = r.sigma_v_rad = sigma_rad;
+  r.camera = camera;
+  return r;
+}
+
+enum Cams { kBoth, kOmniOnly, kPerspOnly };
+
+BallObservation Observe(const Eigen::Vector3f& p, uint64_t t_us, Cams cams, int k,
+                        float scale = 1.f, float size_rel = 0.f) {
+  BallObservation o;
+  o.t_us = t_us;
+  if (cams != kPerspOnly) o.rays[o.n_rays++] = RayTo(kOmni, p, 0, 0.004f * scale, k);
+  if (cams != kOmniOnly) {
+    BallRay r = RayTo(kPersp, p, 1, 0.0015f * scale, k);
+    if (size_rel > 0.f) {
+      const float range = (p - kPersp).norm();
+      r.range_m = range * (1.f + size_rel * Noise(k, 7));
+      r.range_sigma_m = range * size_rel;
+    }
+    o.rays[o.n_rays++] = r;
+  }
+  return o;
+}
+
+BallFilterConfig Config() {
+  BallFilterConfig c;
+  c.drag_per_m = kDrag;
+  return c;
 }
 
 bool AllFinite(const BallState& s) {
-  for (float v : {s.x_m, s.y_m, s.z_m, s.vx_mps, s.vy_mps, s.vz_mps, s.px_m, s.py_m, s.pz_m}) {
+  for (float v : {s.x_m, s.y_m, s.z_m, s.vx_mps, s.vy_mps, s.vz_mps, s.px_m, s.py_m, s.pz_m,
+                  s.sigma_x_m, s.sigma_y_m, s.sigma_z_m}) {
     if (!std::isfinite(v)) return false;
   }
   return true;
 }
 
-TEST(BallFilter, RollingConstantVelocityIsExact) {
-  BallFilter f;
+Eigen::Vector3f Pos(const BallState& s) { return Eigen::Vector3f(s.x_m, s.y_m, s.z_m); }
+
+TEST(BallFilter, RollingBallFromBothRays) {
+  Sim ball{Eigen::Vector3f(-1.f, 3.f, kR), Eigen::Vector3f(2.f, -0.5f, 0.f)};
+  BallFilter f(Config());
   BallState s;
-  for (int k = 0; k < 20; ++k) {
-    const float t = k / 30.f;
-    ASSERT_EQ(f.Update(Meas(FrameUs(k), 0.5f + 1.f * t, 3.f - 2.f * t, kR)), 0);
-    f.FillState(FrameUs(k), 200000, s);
-    if (k < 2) continue;
-    EXPECT_TRUE(s.found);
-    EXPECT_EQ(s.mode, BallMode::kRolling);
-    EXPECT_NEAR(s.vx_mps, 1.f, 1e-3f);
-    EXPECT_NEAR(s.vy_mps, -2.f, 1e-3f);
-    EXPECT_FLOAT_EQ(s.z_m, kR);
-    EXPECT_FLOAT_EQ(s.vz_mps, 0.f);
-    EXPECT_FALSE(s.flags & kFlagHasBounce);
-    EXPECT_NEAR(s.px_m, 0.5f + (t + 0.2f), 1e-3f);
-    EXPECT_NEAR(s.py_m, 3.f - 2.f * (t + 0.2f), 1e-3f);
+  for (int k = 0; k < 40; ++k) {
+    const uint64_t t = FrameUs(k);
+    ASSERT_EQ(f.Update(Observe(ball.p, t, kBoth, k)), 0) << k;
+    f.FillState(t, 200000, s);
+    ASSERT_TRUE(AllFinite(s));
+    if (k >= 6) {
+      EXPECT_EQ(s.mode, BallMode::kRolling) << k;
+      EXPECT_LT((Pos(s) - ball.p).norm(), 0.03f) << k;
+      EXPECT_NEAR(s.vx_mps, ball.v.x(), 0.15f) << k;
+      EXPECT_NEAR(s.vy_mps, ball.v.y(), 0.15f) << k;
+      EXPECT_FLOAT_EQ(s.vz_mps, 0.f);
+      EXPECT_FALSE(s.flags & kFlagHasBounce);
+    }
+    ball.Step(1.f / 30.f);
   }
-  EXPECT_EQ(f.window_size(), 10);
 }
 
-// Quadratic air drag as in the renderer: Cd 0.25, A 0.038 m^2, 0.43 kg, rho 1.2.
-struct DragBall {
-  Eigen::Vector3f p, v;
-  void Step(float dt) {
-    const float k = 0.5f * 1.2f * 0.25f * 0.038f / 0.43f;
-    for (int i = 0; i < 100; ++i) {
-      const float h = dt / 100.f;
-      const Eigen::Vector3f a = -k * v.norm() * v - Eigen::Vector3f(0, 0, kG);
-      v += a * h;
-      p += v * h;
-    }
-  }
+struct LobResult {
+  std::vector<float> err;       // frames the filter calls observable, from frame 3 on
+  std::vector<float> pred_err;  // 200 ms ahead, same frames
+  std::vector<float> tri_err;   // the two rays' midpoint (eq. 2), when both cameras see the ball
+  float worst_unflagged = 0;    // largest error of a frame not flagged kFlagUnobservable (k >= 3)
+  int flying = 0, frames = 0, unobservable = 0;
+  float last_err = 0;
 };
 
-TEST(BallFilter, LobWithDragPredicts200msWithin5cmAndTouchdownWithin30ms) {
-  // 6.6 m/s at 35 deg towards the robot from 6 m, 1 cm measurement noise.
-  DragBall ball{Eigen::Vector3f(0.8f, 6.f, kR),
-                Eigen::Vector3f(0, -6.6f * std::cos(0.6109f), 6.6f * std::sin(0.6109f))};
+// A lob from 6 m (6.6 m/s, 35 degrees) towards the robot until the first contact (23 frames),
+// seen by the given cameras through the rig's ray noise.
+LobResult RunLob(Cams cams, float size_rel) {
+  Sim ball{Eigen::Vector3f(0.8f, 6.f, kR),
+           Eigen::Vector3f(0, -6.6f * std::cos(0.6109f), 6.6f * std::sin(0.6109f))};
   std::vector<Eigen::Vector3f> truth;
-  std::vector<uint64_t> times;
-  double touchdown_s = -1;
-  for (int k = 0; k < 60; ++k) {
+  while (ball.bounces == 0) {
     truth.push_back(ball.p);
-    times.push_back(FrameUs(k));
-    const Eigen::Vector3f before = ball.p;
     ball.Step(1.f / 30.f);
-    if (touchdown_s < 0 && ball.p.z() < kR && k > 0) {
-      touchdown_s = (k + (before.z() - kR) / (before.z() - ball.p.z())) / 30.0;
+  }
+  BallFilter f(Config());
+  LobResult out;
+  BallState s;
+  const int n = static_cast<int>(truth.size());
+  for (int k = 0; k < n; ++k) {
+    const BallObservation o = Observe(truth[k], FrameUs(k), cams, k, 1.f, size_rel);
+    f.Update(o);
+    f.FillState(FrameUs(k), 200000, s);
+    EXPECT_TRUE(AllFinite(s)) << k;
+    const float e = (Pos(s) - truth[k]).norm();
+    out.last_err = e;
+    if (o.n_rays == 2) {
+      const Eigen::Vector3f w = o.rays[0].origin - o.rays[1].origin;
+      const Eigen::Vector3f &a = o.rays[0].dir, &b = o.rays[1].dir;
+      const float ab = a.dot(b), den = 1.f - ab * ab;
+      const float sa = (ab * b.dot(w) - a.dot(w)) / den, sb = (b.dot(w) - ab * a.dot(w)) / den;
+      const Eigen::Vector3f mid = 0.5f * (o.rays[0].origin + sa * a + o.rays[1].origin + sb * b);
+      out.tri_err.push_back((mid - truth[k]).norm());
+    }
+    if (k < 3) continue;  // a ball seen once or twice is on the floor until it shows otherwise
+    ++out.frames;
+    if (s.flags & kFlagUnobservable) {
+      ++out.unobservable;
+      continue;
+    }
+    out.worst_unflagged = std::max(out.worst_unflagged, e);
+    out.flying += s.mode == BallMode::kFlying;
+    out.err.push_back(e);
+    if (k + 6 < n) {
+      out.pred_err.push_back((Eigen::Vector3f(s.px_m, s.py_m, s.pz_m) - truth[k + 6]).norm());
+    }
+  }
+  return out;
+}
+
+float Rms(const std::vector<float>& v) {
+  double s = 0;
+  for (float x : v) s += static_cast<double>(x) * x;
+  return v.empty() ? 0.f : static_cast<float>(std::sqrt(s / static_cast<double>(v.size())));
+}
+
+float MedianOf(std::vector<float> v) {
+  if (v.empty()) return 0.f;
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
+}
+
+TEST(BallFilter, LobSeenOnlyByTheOmniCameraIsReconstructedIn3D) {
+  // One centre of projection: the range comes from gravity alone, so the first part of the flight
+  // is flagged unobservable; once observable, the ball is flying and placed in 3D, not on the
+  // floor.
+  const LobResult r = RunLob(kOmniOnly, 0.f);
+  ASSERT_EQ(r.frames, 20);
+  EXPECT_GE(r.frames - r.unobservable, 4);
+  EXPECT_EQ(r.flying, r.frames - r.unobservable);
+  EXPECT_LT(r.worst_unflagged, 0.4f);
+  EXPECT_LT(r.last_err, 0.2f);
+}
+
+TEST(BallFilter, LobSeenOnlyByThePerspCameraWithItsSize) {
+  const LobResult r = RunLob(kPerspOnly, 0.08f);
+  EXPECT_EQ(r.unobservable, 0);
+  EXPECT_EQ(r.flying, r.frames);
+  EXPECT_LT(r.worst_unflagged, 0.25f);
+  EXPECT_LT(MedianOf(r.err), 0.1f);
+}
+
+TEST(BallFilter, LobSeenByBothCamerasBeatsPerFrameTriangulation) {
+  const LobResult r = RunLob(kBoth, 0.f);
+  EXPECT_EQ(r.flying, r.frames - r.unobservable);
+  EXPECT_LE(r.unobservable, 1);
+  // At 3-6 m the rig's 0.33 m baseline makes each frame's midpoint uncertain by decimetres; the
+  // fit over the arc is at least twice as good.
+  EXPECT_LT(Rms(r.err), 0.5f * Rms(r.tri_err));
+  EXPECT_LT(MedianOf(r.pred_err), 0.15f);
+}
+
+class BounceSeries : public ::testing::TestWithParam<float> {};
+
+TEST_P(BounceSeries, ContactTimesAndRestitution) {
+  const float b_true = GetParam();
+  Sim ball{Eigen::Vector3f(0.f, 2.f, 2.0f), Eigen::Vector3f::Zero()};  // dropped from 2 m
+  ball.b = b_true;
+  std::vector<Eigen::Vector3f> truth;
+  for (int k = 0; k < 75; ++k) {
+    truth.push_back(ball.p);
+    ball.Step(1.f / 30.f);
+  }
+  ASSERT_GE(ball.contacts_s.size(), 2u);
+  BallFilter f(Config());
+  BallState s;
+  std::vector<float> contact_err;
+  for (int k = 0; k < 75; ++k) {
+    const double t_s = k / 30.0;
+    f.Update(Observe(truth[k], FrameUs(k), kBoth, k));
+    f.FillState(FrameUs(k), 200000, s);
+    ASSERT_TRUE(AllFinite(s)) << k;
+    if (k >= 6) {  // the first frames triangulate a ball 2 m up at 2 m: ~5 cm on this rig
+      EXPECT_LT((Pos(s) - truth[k]).norm(), 0.06f) << "frame " << k;
+    }
+    // The next contact, predicted 0.3 .. 1 s ahead, once the arc is seen for 5 frames.
+    for (double c : ball.contacts_s) {
+      if (c <= t_s) continue;
+      if (c - t_s < 0.3 || c - t_s > 1.0 || k < 5) break;
+      bool arc_seen = true;
+      for (double c0 : ball.contacts_s) arc_seen &= !(c0 < t_s && c0 > t_s - 5 / 30.0);
+      if (!arc_seen) break;
+      ASSERT_TRUE(s.flags & kFlagHasBounce) << k;
+      const double pred = (static_cast<double>(s.t_bounce_us) - 1e6) * 1e-6;
+      EXPECT_NEAR(pred, c, 0.04) << "frame " << k << " b " << b_true;
+      contact_err.push_back(static_cast<float>(std::fabs(pred - c)));
       break;
     }
   }
-  ASSERT_GT(touchdown_s, 0.6);
-  const int n = static_cast<int>(truth.size());
-  BallFilter f;
-  BallState s;
-  int checked = 0;
-  for (int k = 0; k < n; ++k) {
-    const Eigen::Vector3f& p = truth[k];
-    ASSERT_EQ(f.Update(Meas(times[k], p.x() + Noise(k, 0, 0.01f), p.y() + Noise(k, 1, 0.01f),
-                            p.z() + Noise(k, 2, 0.01f))),
-              0)
-        << k;
-    f.FillState(times[k], 200000, s);
-    ASSERT_TRUE(AllFinite(s));
-    if (k >= 6) {
-      EXPECT_EQ(s.mode, BallMode::kFlying) << k;
-      ASSERT_TRUE(s.flags & kFlagHasBounce) << k;
-      EXPECT_NEAR(static_cast<double>(s.t_bounce_us) * 1e-6, touchdown_s, 0.03) << k;
-    }
-    if (k >= 6 && k + 6 < n) {
-      const Eigen::Vector3f pred(s.px_m, s.py_m, s.pz_m);
-      EXPECT_LT((pred - truth[k + 6]).norm(), 0.05f) << "frame " << k;
-      ++checked;
-    }
-  }
-  EXPECT_GE(checked, 5);
+  ASSERT_GE(contact_err.size(), 8u);
+  std::sort(contact_err.begin(), contact_err.end());
+  EXPECT_LE(contact_err[contact_err.size() / 2], 0.02f);  // the goal: median <= 0.02 s
+  EXPECT_NEAR(f.bounce_factor(), b_true, 0.05f);
 }
 
-class VerticalBounce : public ::testing::TestWithParam<float> {};
+INSTANTIATE_TEST_SUITE_P(B, BounceSeries, ::testing::Values(0.5f, 0.6f, 0.7f, 0.85f));
 
-TEST_P(VerticalBounce, BounceTimesModeAndRestitution) {
-  const float b_true = GetParam();
-  // Analytic drop from 1.2 m at (0, 2): contacts and arcs, v_out = b v_in.
-  std::vector<double> contacts;
-  double t0 = 0, z0 = 1.2, v0 = 0;
-  auto height = [&](double t, double& vz) {
-    double ts = 0, zs = 1.2, vs = 0;
-    for (;;) {
-      const double s = (vs + std::sqrt(vs * vs + 2 * kG * (zs - kR))) / kG;
-      if (t < ts + s || (ts > 0 && vs < 0.3)) {
-        const double u = std::min(t - ts, s);
-        vz = vs - kG * u;
-        return zs + vs * u - 0.5 * kG * u * u;
-      }
-      ts += s;
-      vs = b_true * std::fabs(vs - kG * s);
-      zs = kR;
-    }
-  };
-  (void)t0;
-  (void)z0;
-  (void)v0;
-  {
-    double ts = 0, zs = 1.2, vs = 0;
-    for (int i = 0; i < 4; ++i) {
-      const double s = (vs + std::sqrt(vs * vs + 2 * kG * (zs - kR))) / kG;
-      ts += s;
-      contacts.push_back(ts);
-      vs = b_true * std::fabs(vs - kG * s);
-      zs = kR;
-    }
-  }
-  BallFilterConfig cfg;
-  cfg.bounce_factor = 0.7f;  // configured guess; estimated from the bounces
-  BallFilter f(cfg);
+TEST(BallFilter, KickThatReversesDirectionIsFollowedWithin3Frames) {
+  Sim ball{Eigen::Vector3f(-1.f, 3.f, kR), Eigen::Vector3f(2.f, 0.f, 0.f)};
+  BallFilter f(Config());
   BallState s;
-  bool saw_bouncing = false;
-  for (int k = 0; k < 75; ++k) {
-    const double t = k / 30.0;
-    double vz;
-    const double z = height(t, vz);
-    ASSERT_EQ(f.Update(Meas(FrameUs(k), Noise(k, 0, 0.005f), 2.f + Noise(k, 1, 0.005f),
-                            static_cast<float>(z) + Noise(k, 2, 0.005f))),
-              0);
+  for (int k = 0; k < 40; ++k) {
+    if (k == 15) ball.v = Eigen::Vector3f(-3.f, -1.f, 0.f);
+    f.Update(Observe(ball.p, FrameUs(k), kBoth, k));
     f.FillState(FrameUs(k), 200000, s);
     ASSERT_TRUE(AllFinite(s));
-    if (s.mode == BallMode::kBouncing) saw_bouncing = true;
-    // Next-contact prediction, checked from 4 frames after the previous contact.
-    for (size_t c = 0; c < contacts.size(); ++c) {
-      const double prev = c == 0 ? 0.0 : contacts[c - 1];
-      if (t >= prev + 4 / 30.0 && t < contacts[c] - 1e-3) {
-        ASSERT_TRUE(s.flags & kFlagHasBounce) << "t=" << t;
-        EXPECT_NEAR(static_cast<double>(s.t_bounce_us) * 1e-6, contacts[c], 0.02) << "t=" << t;
-        EXPECT_NEAR(s.vz_mps, vz, 0.15) << "t=" << t;
-        break;
+    if (k >= 18) {
+      EXPECT_NEAR(s.vx_mps, ball.v.x(), 0.15f) << k;
+      EXPECT_LT((Pos(s) - ball.p).norm(), 0.03f) << k;
+    }
+    ball.Step(1.f / 30.f);
+  }
+}
+
+TEST(BallFilter, BallThatStopsComesToRest) {
+  Sim ball{Eigen::Vector3f(0.f, 2.f, kR), Eigen::Vector3f(1.0f, 0.5f, 0.f)};
+  BallFilter f(Config());
+  BallState s;
+  for (int k = 0; k < 90; ++k) {
+    f.Update(Observe(ball.p, FrameUs(k), kBoth, k));
+    f.FillState(FrameUs(k), 200000, s);
+    ASSERT_TRUE(AllFinite(s));
+    EXPECT_LT((Pos(s) - ball.p).norm(), 0.04f) << k;  // ~2 sigma of the rig at 2 m
+    ball.Step(1.f / 30.f);
+  }
+  ASSERT_LT(ball.v.norm(), 1e-3f);  // at rest for the last ~1 s
+  EXPECT_LT(std::hypot(s.vx_mps, s.vy_mps), 0.03f);
+  EXPECT_LT((Eigen::Vector3f(s.px_m, s.py_m, s.pz_m) - ball.p).norm(), 0.02f);
+}
+
+TEST(BallFilter, UncertaintyCoversTheTrueErrorAbout68Percent) {
+  // Rolling and flying balls, rays with the stated noise: each axis' error within 1 sigma.
+  int inside = 0, total = 0;
+  for (int run = 0; run < 2; ++run) {
+    Sim ball = run == 0 ? Sim{Eigen::Vector3f(-2.f, 4.f, kR), Eigen::Vector3f(1.5f, -0.5f, 0.f)}
+                        : Sim{Eigen::Vector3f(1.f, 5.f, kR), Eigen::Vector3f(-1.f, -3.f, 4.f)};
+    BallFilter f(Config());
+    BallState s;
+    for (int k = 0; k < 25; ++k) {
+      f.Update(Observe(ball.p, FrameUs(k), kBoth, 100 * run + k, 2.f));
+      f.FillState(FrameUs(k), 0, s);
+      if (k >= 5) {
+        const Eigen::Vector3f e = Pos(s) - ball.p;
+        const float sig[3] = {s.sigma_x_m, s.sigma_y_m, s.sigma_z_m};
+        for (int j = 0; j < 3; ++j) {
+          if (run == 0 && j == 2) continue;  // z is a constraint when rolling
+          inside += std::fabs(e(j)) <= sig[j];
+          ++total;
+        }
       }
+      ball.Step(1.f / 30.f);
     }
   }
-  EXPECT_TRUE(saw_bouncing);
-  EXPECT_NEAR(f.bounce_factor(), b_true, 0.05f);
-  // Two seconds later with the same pattern the bounce dies out into rolling.
-  for (int k = 75; k < 180; ++k) {
-    double vz;
-    const double z = height(k / 30.0, vz);
-    f.Update(Meas(FrameUs(k), 0, 2.f, static_cast<float>(z)));
-  }
-  f.FillState(FrameUs(179), 200000, s);
-  EXPECT_EQ(s.mode, BallMode::kRolling);
-  EXPECT_NEAR(s.z_m, kR, 1e-6f);
+  const float frac = static_cast<float>(inside) / static_cast<float>(total);
+  EXPECT_GT(frac, 0.5f);
+  EXPECT_LT(frac, 0.9f);
 }
 
-INSTANTIATE_TEST_SUITE_P(Restitution, VerticalBounce, ::testing::Values(0.6f, 0.7f, 0.8f));
-
-TEST(BallFilter, KickChangesDirectionWithin4Frames) {
-  BallFilter f;
+TEST(BallFilter, CoastingGrowsTheUncertaintyThenTheTrackIsLost) {
+  Sim ball{Eigen::Vector3f(0.f, 3.f, kR), Eigen::Vector3f(1.f, 0.f, 0.f)};
+  BallFilter f(Config());
+  for (int k = 0; k < 10; ++k) {
+    f.Update(Observe(ball.p, FrameUs(k), kBoth, k));
+    ball.Step(1.f / 30.f);
+  }
   BallState s;
-  float x = 0, y = 2;
-  int k = 0;
-  for (; k < 20; ++k, x += 1.f / 30.f) {
-    f.Update(Meas(FrameUs(k), x, y, kR));
+  float last_sigma = 0;
+  for (int k = 10; k < 30; ++k) {
+    f.FillState(FrameUs(k), 0, s);
+    if (FrameUs(k) <= FrameUs(9) + 500000) {
+      ASSERT_TRUE(s.found) << k;
+      EXPECT_TRUE(s.flags & kFlagCoasting);
+      EXPECT_GT(s.sigma_x_m, last_sigma);
+      last_sigma = s.sigma_x_m;
+      // Follows the rolling model: never runs away from where the rays left it.
+      EXPECT_LT(std::fabs(s.x_m - (ball.p.x())), 0.3f);
+    } else {
+      EXPECT_FALSE(s.found) << k;
+      EXPECT_TRUE(s.flags & kFlagLost);
+    }
+    ball.Step(1.f / 30.f);
   }
-  f.FillState(FrameUs(k - 1), 0, s);
-  EXPECT_NEAR(s.vx_mps, 1.f, 1e-3f);
-  // Kick: from now on (-2, 3) m/s.
-  for (int j = 0; j < 4; ++j, ++k) {
-    x += -2.f / 30.f;
-    y += 3.f / 30.f;
-    EXPECT_EQ(f.Update(Meas(FrameUs(k), x, y, kR)), 0);
-  }
-  f.FillState(FrameUs(k - 1), 0, s);
-  EXPECT_NEAR(s.vx_mps, -2.f, 0.1f);
-  EXPECT_NEAR(s.vy_mps, 3.f, 0.1f);
-  EXPECT_LT(f.window_size(), 5);  // the window was shrunk
 }
 
-TEST(BallFilter, StoppingBallReachesZeroVelocity) {
-  BallFilter f;
+TEST(BallFilter, BadRaysAreRefusedAndNothingIsNaN) {
+  Sim ball{Eigen::Vector3f(0.f, 3.f, kR), Eigen::Vector3f(1.f, 0.f, 0.f)};
+  BallFilter f(Config());
   BallState s;
   int k = 0;
-  float y = 1;
-  for (; k < 15; ++k, y += 0.05f) f.Update(Meas(FrameUs(k), 0.3f, y, kR));
-  for (int j = 0; j < 10; ++j, ++k) f.Update(Meas(FrameUs(k), 0.3f, y, kR));
-  f.FillState(FrameUs(k - 1), 200000, s);
-  EXPECT_NEAR(s.vx_mps, 0.f, 1e-4f);
-  EXPECT_NEAR(s.vy_mps, 0.f, 1e-4f);
-  EXPECT_NEAR(s.py_m, y, 1e-4f);
-  EXPECT_EQ(s.mode, BallMode::kRolling);
-}
-
-TEST(BallFilter, BadInputIsRejectedAndTrackRecovers) {
-  BallFilter f;
-  BallState s;
-  int k = 0;
-  auto truth_x = [](int i) { return 0.5f * i / 30.f; };
-  for (; k < 10; ++k) ASSERT_EQ(f.Update(Meas(FrameUs(k), truth_x(k), 3, kR)), 0);
-  // Repeated and out-of-order timestamps.
-  EXPECT_EQ(f.Update(Meas(FrameUs(k - 1), 9, 9, kR)), kFlagBadTimestamp);
-  EXPECT_EQ(f.Update(Meas(FrameUs(k - 3), 9, 9, kR)), kFlagBadTimestamp);
-  // NaN and a detection 40 m away.
-  EXPECT_EQ(f.Update(Meas(FrameUs(k), std::nanf(""), 3, kR)), kFlagOutlierRejected);
-  EXPECT_EQ(f.Update(Meas(FrameUs(k), 40, 3, kR)), kFlagOutOfField);
-  EXPECT_EQ(f.Update(Meas(FrameUs(k), 0, 3, 50)), kFlagOutOfField);
-  // A single outlier 3 m away.
-  EXPECT_EQ(f.Update(Meas(FrameUs(k), truth_x(k) + 3.f, 3, kR)), kFlagOutlierRejected);
+  auto good = [&]() {
+    const uint16_t flags = f.Update(Observe(ball.p, FrameUs(k), kBoth, k));
+    ball.Step(1.f / 30.f);
+    ++k;
+    return flags;
+  };
+  for (int i = 0; i < 8; ++i) ASSERT_EQ(good(), 0);
+  const float nan = std::nanf("");
+  // NaN direction, NaN origin, NaN sigma, zero direction.
+  for (int bad = 0; bad < 4; ++bad) {
+    BallObservation o = Observe(ball.p, FrameUs(k), kOmniOnly, k);
+    if (bad == 0) o.rays[0].dir.x() = nan;
+    if (bad == 1) o.rays[0].origin.z() = nan;
+    if (bad == 2) o.rays[0].sigma_h_rad = nan;
+    if (bad == 3) o.rays[0].dir.setZero();
+    EXPECT_EQ(f.Update(o), kFlagOutlierRejected) << bad;
+    ball.Step(1.f / 30.f);
+    ++k;
+  }
+  // Straight up, and through the robot's own body (meets the floor under the robot).
+  {
+    BallObservation o = Observe(ball.p, FrameUs(k), kOmniOnly, k);
+    o.rays[0].dir = Eigen::Vector3f(0.f, 0.1f, 1.f).normalized();
+    EXPECT_EQ(f.Update(o), kFlagOutlierRejected);
+    o.t_us = FrameUs(++k);
+    o.rays[0].dir = Eigen::Vector3f(0.05f, 0.1f, -1.f).normalized();
+    EXPECT_EQ(f.Update(o), kFlagOutlierRejected);
+    ball.Step(2.f / 30.f);
+    ++k;
+  }
+  // A timestamp repeated and one out of order.
+  ASSERT_EQ(good(), 0);
+  EXPECT_EQ(f.Update(Observe(ball.p, FrameUs(k - 1), kBoth, k)), kFlagBadTimestamp);
+  EXPECT_EQ(f.Update(Observe(ball.p, FrameUs(k - 3), kBoth, k)), kFlagBadTimestamp);
+  // An outlier 3 m away (one frame) is rejected; the track goes on.
+  EXPECT_EQ(f.Update(Observe(ball.p + Eigen::Vector3f(3.f, 0, 0), FrameUs(k), kBoth, k)),
+            kFlagOutlierRejected);
+  ball.Step(1.f / 30.f);
   ++k;
-  EXPECT_EQ(f.Update(Meas(FrameUs(k), truth_x(k), 3, kR)), 0);
-  f.FillState(FrameUs(k), 0, s);
-  EXPECT_NEAR(s.x_m, truth_x(k), 1e-3f);
-  EXPECT_NEAR(s.vx_mps, 0.5f, 1e-3f);
-  // Coasting, then lost after 0.5 s without measurements.
-  f.FillState(FrameUs(k + 6), 0, s);
-  EXPECT_TRUE(s.found);
-  EXPECT_TRUE(s.flags & kFlagCoasting);
-  EXPECT_NEAR(s.x_m, truth_x(k + 6), 1e-3f);
-  f.FillState(FrameUs(k + 20), 0, s);
+  ASSERT_EQ(good(), 0);
+  f.FillState(FrameUs(k - 1), 200000, s);
+  EXPECT_LT((Pos(s) - Eigen::Vector3f(ball.p.x() - 1.f / 30.f, ball.p.y(), kR)).norm(), 0.05f);
+  // Parallel rays (the two cameras' rays both horizontal, side by side): no NaN, finite state.
+  {
+    BallObservation o;
+    o.t_us = FrameUs(k++);
+    o.n_rays = 2;
+    o.rays[0].origin = kOmni;
+    o.rays[1].origin = kPersp;
+    o.rays[1].camera = 1;
+    o.rays[0].dir = o.rays[1].dir = Eigen::Vector3f(0.f, 1.f, 0.f);
+    f.Update(o);
+    f.FillState(o.t_us, 200000, s);
+    EXPECT_TRUE(AllFinite(s));
+    ball.Step(1.f / 30.f);
+  }
+  // A detection that jumps between two balls every frame: the track stays on the first.
+  const Eigen::Vector3f other(-2.f, 4.f, kR);
+  for (int i = 0; i < 10; ++i) {
+    if (i % 2) {
+      EXPECT_EQ(f.Update(Observe(other, FrameUs(k), kBoth, k)), kFlagOutlierRejected) << i;
+      ball.Step(1.f / 30.f);
+      ++k;
+    } else {
+      EXPECT_EQ(good(), 0) << i;
+    }
+  }
+  f.FillState(FrameUs(k - 1), 200000, s);
+  EXPECT_TRUE(AllFinite(s));
+  EXPECT_LT(std::fabs(s.y_m - 3.f), 0.1f);
+  // A 2 s gap: lost, then a new track where the ball is now.
+  f.FillState(FrameUs(k) + 2000000, 0, s);
   EXPECT_FALSE(s.found);
-  EXPECT_TRUE(s.flags & kFlagLost);
-  // 2 s gap: a new track starts where the ball is now; velocity known after 2 frames.
-  k += 60;
-  EXPECT_EQ(f.Update(Meas(FrameUs(k), -2, 1, kR)), 0);
-  EXPECT_EQ(f.Update(Meas(FrameUs(k + 1), -2.f + 0.1f, 1, kR)), 0);
-  f.FillState(FrameUs(k + 1), 0, s);
+  const Eigen::Vector3f moved(1.5f, 2.f, kR);
+  EXPECT_EQ(f.Update(Observe(moved, FrameUs(k) + 2000000, kBoth, k)), 0);
+  f.FillState(FrameUs(k) + 2000000, 0, s);
   EXPECT_TRUE(s.found);
-  EXPECT_FALSE(s.flags & (kFlagCoasting | kFlagLost));
-  EXPECT_NEAR(s.x_m, -1.9f, 1e-4f);
-  EXPECT_NEAR(s.vx_mps, 3.f, 1e-3f);
-  ASSERT_TRUE(AllFinite(s));
+  EXPECT_LT((Pos(s) - moved).norm(), 0.05f);
 }
 
-TEST(BallFilter, ConfirmedJumpStartsANewTrack) {
-  BallFilter f;
+TEST(BallFilter, OneOmniRayOfAStillBallIsOnTheFloorAndFlaggedWhenItCannotBe) {
+  // Omni only, ball at rest on the floor: the floor model places it; a single ray with nothing else
+  // of a ball in the air is not observable and says so.
+  BallFilter f(Config());
   BallState s;
-  int k = 0;
-  for (; k < 10; ++k) f.Update(Meas(FrameUs(k), 0, 3, kR));
-  EXPECT_EQ(f.Update(Meas(FrameUs(k++), 3, 1, kR)), kFlagOutlierRejected);
-  EXPECT_EQ(f.Update(Meas(FrameUs(k), 3, 1, kR)), 0);  // confirmed: it really is there
-  f.FillState(FrameUs(k), 0, s);
-  EXPECT_NEAR(s.x_m, 3.f, 1e-4f);
-  EXPECT_NEAR(s.y_m, 1.f, 1e-4f);
-  EXPECT_NEAR(s.vx_mps, 0.f, 1e-3f);
+  const Eigen::Vector3f p(1.f, 2.f, kR);
+  for (int k = 0; k < 10; ++k) {
+    f.Update(Observe(p, FrameUs(k), kOmniOnly, k));
+    f.FillState(FrameUs(k), 0, s);
+    if (k >= 2) {
+      EXPECT_LT((Pos(s) - p).norm(), 0.03f) << k;
+    }
+  }
+  EXPECT_FALSE(s.flags & kFlagUnobservable);
+  EXPECT_EQ(s.mode, BallMode::kRolling);
 }
 
 TEST(BallFilter, NoTrackMeansNotFound) {
   BallFilter f;
   BallState s;
-  f.FillState(1000, 200000, s);
+  f.FillState(123, 200000, s);
   EXPECT_FALSE(s.found);
-  EXPECT_EQ(s.mode, BallMode::kNone);
   Eigen::Vector3f p, v;
   BallMode m;
-  EXPECT_FALSE(f.StateAt(0, p, v, m));
-}
-
-TEST(BallFilter, ZAssumedMeasurementsOnlyInformXY) {
-  BallFilter f;
-  BallState s;
-  // A flying ball; every other frame only the horizontal position is known.
-  for (int k = 0; k < 12; ++k) {
-    const float t = k / 30.f;
-    BallMeasurement m = Meas(FrameUs(k), t, 2.f, 1.f + 3.f * t - 0.5f * kG * t * t);
-    if (k % 2) {
-      m.z_valid = false;
-      m.p_m.z() = kR;  // wrong on purpose; must be ignored
-    }
-    EXPECT_EQ(f.Update(m), 0);
-  }
-  const float t = 11 / 30.f;
-  f.FillState(FrameUs(11), 0, s);
-  EXPECT_EQ(s.mode, BallMode::kFlying);
-  EXPECT_NEAR(s.z_m, 1.f + 3.f * t - 0.5f * kG * t * t, 1e-3f);
-  EXPECT_NEAR(s.vz_mps, 3.f - kG * t, 1e-2f);
-  EXPECT_NEAR(s.vx_mps, 1.f, 1e-3f);
+  EXPECT_FALSE(f.StateAt(123, p, v, m));
+  EXPECT_EQ(m, BallMode::kNone);
 }
 
 }  // namespace

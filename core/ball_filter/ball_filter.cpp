@@ -3,49 +3,98 @@
 #include <algorithm>
 #include <cmath>
 
+#include <Eigen/Cholesky>
+#include <Eigen/Geometry>  // cross products
+
 namespace bv {
 namespace {
 
-constexpr float kAnchorWeight = 2.f;  // a floor contact counts like two measurements
+using Vec6 = Eigen::Matrix<float, 6, 1>;
+using Mat6 = Eigen::Matrix<float, 6, 6>;
+
+constexpr float kSigmaFloorM = 0.003f;      // metric noise floor of a ray (centroid quantisation)
+constexpr float kMinDepthM = 0.1f;          // depth along a ray used for its angular residual
+constexpr int kIterations = 3;              // Gauss-Newton steps per fit
+constexpr float kConstraintWeight = 1e6f;   // rolling: z = r, vz = 0 (1 mm, 1 mm/s)
+constexpr float kRegPos = 1e-4f;            // 100 m: keeps an unobserved direction finite
+constexpr float kRegVel = 1e-2f;            // 10 m/s
+constexpr float kMaxUpwardDirZ = 0.7f;      // rays steeper than ~44 deg up cannot see a ball
+constexpr float kRestSpeedMps = 0.02f;      // slower: at rest (no rolling deceleration)
+constexpr float kHuberSigma = 3.f;          // residuals beyond this many sigmas count linearly
+constexpr float kStopCheckSpeedMps = 0.5f;  // a rolling fit this slow is checked for having stopped
+constexpr float kOffSigma = 3.f;  // a frame this far from the prediction may start a segment
+constexpr int kRestFrames = 4;
+constexpr float kUnobservableGateRad = 0.15f;
+constexpr float kUnknownDepthM = 4.f;  // where a lone ray above the floor's horizon starts  //
+                                       // direction gate while the range is unknown
+constexpr float kAmbiguousChi2 = 4.f;  // two flights this close in chi^2 but apart: ambiguous //
+                                       // frames that must agree with a ball at rest
 
 float Seconds(uint64_t a_us, uint64_t b_us) {  // a - b in seconds, signed
   return a_us >= b_us ? static_cast<float>(a_us - b_us) * 1e-6f
                       : -static_cast<float>(b_us - a_us) * 1e-6f;
 }
 
+uint64_t AddSeconds(uint64_t t_us, float s) {
+  const double us = static_cast<double>(t_us) + static_cast<double>(s) * 1e6;
+  return us <= 0 ? 0 : static_cast<uint64_t>(us + 0.5);
+}
+
 bool Finite(const Eigen::Vector3f& v) {
   return std::isfinite(v.x()) && std::isfinite(v.y()) && std::isfinite(v.z());
 }
 
-// Weighted least-squares line y = a + b t. With one distinct time: a = mean, b = 0.
-void FitLine(const float* t, const float* y, const float* w, int n, float& a, float& b) {
-  float sw = 0, st = 0, sy = 0;
-  for (int i = 0; i < n; ++i) {
-    sw += w[i];
-    st += w[i] * t[i];
-    sy += w[i] * y[i];
+// One ray's angular residuals (across the ray, horizontal e1 then e2 = d x e1) for the ball at x
+// relative to the ray origin, and the range cue's residual along it; accumulates J^T W J (m) and
+// J^T W r (g). Angular, not metric: a metric residual would let the fit shrink towards the camera
+// centre, where every ray of one camera meets. Returns chi^2.
+float RayTerms(const Eigen::Vector3f& x, const Eigen::Vector3f& d, float sigma_h, float sigma_v,
+               float range, float range_sigma, Eigen::Matrix3f& m, Eigen::Vector3f& g, int& rows) {
+  Eigen::Vector3f e1 = d.cross(Eigen::Vector3f::UnitZ());
+  const float n1 = e1.norm();
+  if (n1 < 1e-3f) {
+    e1 = Eigen::Vector3f::UnitX() - d * d.x();
+    e1.normalize();
+  } else {
+    e1 /= n1;
   }
-  if (!(sw > 0)) {
-    a = 0;
-    b = 0;
-    return;
+  const Eigen::Vector3f e2 = d.cross(e1);
+  const float along = d.dot(x);
+  const float rho = std::max(along, kMinDepthM);
+  m.setZero();
+  g.setZero();
+  float chi2 = 0;
+  const Eigen::Vector3f* es[2] = {&e1, &e2};
+  const float sig[2] = {sigma_h + kSigmaFloorM / rho, sigma_v + kSigmaFloorM / rho};
+  for (int j = 0; j < 2; ++j) {
+    // The angle itself (atan2): a point behind the camera, on the ray's backward extension, is
+    // half a turn off, not on the ray.
+    const float across = es[j]->dot(x);
+    const float res = std::atan2(across, along);
+    const float n2 = std::max(across * across + along * along, kMinDepthM * kMinDepthM);
+    const Eigen::Vector3f jac = (along * *es[j] - across * d) / n2;
+    const float w = 1.f / (sig[j] * sig[j]);
+    m += w * jac * jac.transpose();
+    g += w * res * jac;
+    chi2 += w * res * res;
   }
-  const float tm = st / sw, ym = sy / sw;
-  float stt = 0, sty = 0;
-  for (int i = 0; i < n; ++i) {
-    stt += w[i] * (t[i] - tm) * (t[i] - tm);
-    sty += w[i] * (t[i] - tm) * (y[i] - ym);
+  rows = 2;
+  if (range > 0.f && range_sigma > 0.f) {
+    const float res = (d.dot(x) - range) / range_sigma;
+    const Eigen::Vector3f jac = d / range_sigma;
+    m += jac * jac.transpose();
+    g += res * jac;
+    chi2 += res * res;
+    ++rows;
   }
-  b = stt > 1e-12f ? sty / stt : 0.f;
-  a = ym - b * tm;  // value at t = 0
+  return chi2;
 }
 
 }  // namespace
 
 void BallFilter::Configure(const BallFilterConfig& config) {
   cfg_ = config;
-  cfg_.max_window = std::clamp(cfg_.max_window, 3, kMaxWindow);
-  cfg_.shrink_after = std::max(cfg_.shrink_after, 1);
+  cfg_.max_window = std::clamp(cfg_.max_window, 4, kMaxWindow);
   Reset();
 }
 
@@ -54,336 +103,770 @@ void BallFilter::Reset() {
   head_ = 0;
   tracking_ = false;
   have_time_ = false;
+  observable_ = false;
   cand_valid_ = false;
-  large_count_ = 0;
+  off_count_ = 0;
+  seg_ = Segment{};
+  fit_ = Fit{};
   b_ = std::clamp(cfg_.bounce_factor, 0.f, 1.f);
+  tangential_ = std::clamp(cfg_.bounce_tangential, 0.f, 1.f);
+  b_samples_ = 0;
+  b_pending_ = false;
 }
 
-const BallFilter::Obs& BallFilter::Newest(int k) const {
+const BallFilter::Stored& BallFilter::Newest(int k) const {
   return obs_[(head_ - 1 - k + 2 * kMaxWindow) % kMaxWindow];
 }
 
-void BallFilter::Push(const BallMeasurement& m) {
-  obs_[head_] = Obs{m.t_us, m.p_m, m.z_valid};
+void BallFilter::Push(const BallObservation& obs) {
+  Stored& s = obs_[head_];
+  s.t_us = obs.t_us;
+  s.n = static_cast<uint8_t>(obs.n_rays);
+  for (int i = 0; i < obs.n_rays; ++i) {
+    const BallRay& r = obs.rays[i];
+    s.rays[i] =
+        StoredRay{r.dir, r.sigma_h_rad, r.sigma_v_rad, r.range_m, r.range_sigma_m, r.camera};
+  }
   head_ = (head_ + 1) % kMaxWindow;
   count_ = std::min(count_ + 1, cfg_.max_window);
 }
 
-void BallFilter::KeepNewest(int n) { count_ = std::clamp(n, 0, count_); }
-
-float BallFilter::RollTolerance(const Eigen::Vector3f& p) const {
-  return cfg_.roll_tolerance_m + cfg_.roll_tolerance_per_m * std::hypot(p.x(), p.y());
-}
-
-void BallFilter::StartTrack(const BallMeasurement& m) {
-  count_ = 0;
-  tracking_ = true;
-  large_count_ = 0;
-  cand_valid_ = false;
-  lift_count_ = 0;
-  anchor_ = false;
-  b_pending_ = false;
-  bounced_ = false;
-  seg_start_us_ = m.t_us;
-  const float r = cfg_.ball_radius_m;
-  vert_ = (!m.z_valid || m.p_m.z() - r < RollTolerance(m.p_m)) ? Vertical::kRolling
-                                                               : Vertical::kAirborne;
-  vz0_ = 0;
-  Push(m);
-  last_meas_us_ = m.t_us;
-  Refit();
-}
-
-void BallFilter::ZAt(float dt_s, float& z, float& vz, bool& rolling, int& bounces) const {
-  const float r = cfg_.ball_radius_m, g = cfg_.gravity_mps2;
-  bounces = 0;
-  rolling = vert_ == Vertical::kRolling;
-  if (rolling) {
-    z = r;
-    vz = 0;
+// Displacement from the accelerations over tau (relative to p + v tau, v the velocity at the
+// reference time). Air: gravity and drag at the midpoint velocity (second order over the window).
+// Rolling: constant deceleration along the motion, from a reference velocity (tau <= 0 in fits,
+// so a ball that has come to rest is not run backwards through its stop).
+void BallFilter::Accel(Motion m, const Eigen::Vector3f& v_ref, float tau, Eigen::Vector3f& a,
+                       Eigen::Vector3f& dv) const {
+  if (m == Motion::kAir) {
+    const Eigen::Vector3f g(0, 0, -cfg_.gravity_mps2);
+    const Eigen::Vector3f vm = v_ref + 0.5f * tau * g;
+    const Eigen::Vector3f acc = g - cfg_.drag_per_m * vm.norm() * vm;
+    a = 0.5f * tau * tau * acc;
+    dv = tau * acc;
     return;
   }
-  float za = z0_, va = vz0_, tau = 0;
+  const float s = std::hypot(v_ref.x(), v_ref.y());
+  if (s < kRestSpeedMps) {
+    a.setZero();
+    dv.setZero();
+    return;
+  }
+  const float d = cfg_.rolling_decel_mps2 + cfg_.drag_per_m * s * s;
+  const Eigen::Vector3f u(v_ref.x() / s, v_ref.y() / s, 0.f);
+  a = u * (-0.5f * d * tau * tau);
+  dv = u * (-d * tau);
+}
+
+// Gauss-Newton over the segment's rays (angular residuals), its prior and its constraints, from
+// the nominal state at t_ref_us_; a small damping keeps an unobserved direction where it was.
+BallFilter::Fit BallFilter::Solve(const Segment& seg, const Vec6& nominal, uint64_t end_us) const {
+  Fit f;
+  Vec6 x = nominal;
+  const float r0 = cfg_.ball_radius_m;
+  auto constrain = [&](Vec6& v) {
+    if (seg.motion != Motion::kRolling) return;
+    v(2) = r0;
+    v(5) = 0;
+    if (seg.at_rest) v(3) = v(4) = 0;
+  };
+  constrain(x);
+  Mat6 h;
+  int rows = 0;
+  for (int it = 0; it < kIterations; ++it) {
+    h.setZero();
+    Vec6 g = Vec6::Zero();
+    rows = 0;
+    const Eigen::Vector3f p0 = x.head<3>(), v0 = x.tail<3>();
+    auto add = [&](float tau, const Eigen::Matrix3f& m, const Eigen::Vector3f& gp) {
+      h.block<3, 3>(0, 0) += m;
+      h.block<3, 3>(0, 3) += tau * m;
+      h.block<3, 3>(3, 0) += tau * m;
+      h.block<3, 3>(3, 3) += tau * tau * m;
+      g.head<3>() += gp;
+      g.tail<3>() += tau * gp;
+    };
+    for (int i = 0; i < count_; ++i) {
+      const Stored& s = Newest(i);
+      if (s.t_us < seg.start_us) break;
+      if (s.t_us > end_us) continue;
+      const float tau = Seconds(s.t_us, t_ref_us_);
+      Eigen::Vector3f a, dv;
+      Accel(seg.motion, v0, tau, a, dv);
+      const Eigen::Vector3f p = p0 + v0 * tau + a;
+      for (int k = 0; k < s.n; ++k) {
+        const StoredRay& r = s.rays[k];
+        Eigen::Matrix3f m;
+        Eigen::Vector3f gp;
+        int nr = 0;
+        const float chi = RayTerms(p - origin_[r.camera], r.dir, r.sigma_h, r.sigma_v, r.range,
+                                   r.range_sigma, m, gp, nr);
+        // Huber: one wrong ray bends the fit only linearly.
+        const float z = std::sqrt(chi / static_cast<float>(nr));
+        if (z > kHuberSigma) {
+          m *= kHuberSigma / z;
+          gp *= kHuberSigma / z;
+        }
+        add(tau, m, gp);
+        rows += nr;
+      }
+    }
+    if (seg.has_prior) {
+      // The previous segment's state at the contact: p(tau_c) and v(tau_c) of this segment.
+      const float tau = Seconds(seg.prior_us, t_ref_us_);
+      Eigen::Vector3f a, adot;
+      Accel(seg.motion, v0, tau, a, adot);
+      Eigen::Matrix3f mp = Eigen::Matrix3f::Zero(), mv = Eigen::Matrix3f::Zero();
+      Eigen::Vector3f rp, rv;
+      for (int j = 0; j < 3; ++j) {
+        mp(j, j) = 1.f / (seg.prior_sigma[j] * seg.prior_sigma[j]);
+        mv(j, j) = 1.f / (seg.prior_sigma[3 + j] * seg.prior_sigma[3 + j]);
+        rp(j) = p0(j) + v0(j) * tau + a(j) - seg.prior_mean[j];
+        rv(j) = v0(j) + adot(j) - seg.prior_mean[3 + j];
+      }
+      add(tau, mp, mp * rp);
+      h.block<3, 3>(3, 3) += mv;
+      g.tail<3>() += mv * rv;
+    }
+    if (seg.motion == Motion::kRolling) {
+      h(2, 2) += kConstraintWeight;
+      h(5, 5) += kConstraintWeight;
+      if (seg.at_rest) {
+        h(3, 3) += kConstraintWeight;
+        h(4, 4) += kConstraintWeight;
+      }
+    }
+    for (int j = 0; j < 3; ++j) {
+      h(j, j) += kRegPos;
+      h(3 + j, 3 + j) += kRegVel;
+    }
+    const Eigen::LDLT<Mat6> ldlt(h);
+    if (ldlt.info() != Eigen::Success) return f;
+    const Vec6 step = ldlt.solve(g);
+    if (!step.allFinite()) return f;
+    x -= step;
+    constrain(x);
+  }
+  f.x = x;
+  const Eigen::LDLT<Mat6> ldlt(h);
+  f.cov = ldlt.solve(Mat6::Identity());
+  if (!f.x.allFinite() || !f.cov.allFinite()) return f;
+  f.rows = rows;
+  for (int i = 0; i < count_; ++i) {
+    if (Newest(i).t_us < seg.start_us) break;
+    if (Newest(i).t_us > end_us) continue;
+    f.chi2 += ObsChi2(Newest(i), seg, f.x, t_ref_us_);
+  }
+  const int dof = rows - (seg.motion == Motion::kAir ? 6 : seg.at_rest ? 2 : 4);
+  if (dof > 0 && f.chi2 > static_cast<float>(dof)) f.cov *= f.chi2 / static_cast<float>(dof);
+  f.ok = true;
+  return f;
+}
+
+float BallFilter::ObsChi2(const Stored& s, const Segment& seg, const Vec6& x,
+                          uint64_t t_ref) const {
+  const float tau = Seconds(s.t_us, t_ref);
+  Eigen::Vector3f a, dv;
+  Accel(seg.motion, x.tail<3>(), tau, a, dv);
+  const Eigen::Vector3f p = x.head<3>() + x.tail<3>() * tau + a;
+  float chi2 = 0;
+  for (int k = 0; k < s.n; ++k) {
+    const StoredRay& r = s.rays[k];
+    Eigen::Matrix3f m;
+    Eigen::Vector3f g;
+    int nr = 0;
+    chi2 += RayTerms(p - origin_[r.camera], r.dir, r.sigma_h, r.sigma_v, r.range, r.range_sigma, m,
+                     g, nr);
+  }
+  return chi2;
+}
+
+// A fit is physically possible only with the ball outside the robot and in front of every camera
+// that sees it now (a single camera's rays all meet at its centre: a degenerate "solution").
+bool BallFilter::Plausible(const Fit& f) const {
+  if (!f.ok) return false;
+  const Eigen::Vector3f p = f.x.head<3>();
+  const float d = p.head<2>().norm();
+  if (d < cfg_.robot_radius_m || d > cfg_.max_range_m || p.z() > cfg_.max_height_m) return false;
+  const Stored& s = Newest(0);
+  for (int k = 0; k < s.n; ++k) {
+    if ((p - origin_[s.rays[k].camera]).dot(s.rays[k].dir) < cfg_.robot_radius_m) return false;
+  }
+  return true;
+}
+
+// A point estimate of one frame's observation (starting a track, checking a jump): the midpoint
+// of the two rays (eq. 2), the persp ray at its size range, or an omni ray on the floor.
+bool BallFilter::PointOf(const BallObservation& obs, Eigen::Vector3f& p) const {
+  const float r = cfg_.ball_radius_m;
+  if (obs.n_rays == 2) {
+    const BallRay &a = obs.rays[0], &b = obs.rays[1];
+    const Eigen::Vector3f w = a.origin - b.origin;
+    const float ab = a.dir.dot(b.dir), den = 1.f - ab * ab;
+    if (den > 1e-5f) {
+      const float s = (ab * b.dir.dot(w) - a.dir.dot(w)) / den;
+      const float t = (b.dir.dot(w) - ab * a.dir.dot(w)) / den;
+      if (s > 0.f && t > 0.f) {
+        p = 0.5f * (a.origin + s * a.dir + b.origin + t * b.dir);
+        return Finite(p);
+      }
+    }
+  }
+  for (int i = 0; i < obs.n_rays; ++i) {
+    const BallRay& ray = obs.rays[i];
+    if (ray.range_m > 0.f) {
+      p = ray.origin + ray.dir * ray.range_m;
+      return Finite(p);
+    }
+  }
+  // One ray: on the floor if it meets the floor within reach, else (a ball in the air above the
+  // floor's horizon) at a nominal depth; the fit decides, flagged unobservable until it can.
+  const BallRay& ray = obs.rays[0];
+  float depth = kUnknownDepthM;
+  if (ray.dir.z() < -1e-3f && ray.origin.z() > r) {
+    const float floor_depth = (r - ray.origin.z()) / ray.dir.z();
+    if ((ray.dir * floor_depth).head<2>().norm() <= cfg_.max_range_m) depth = floor_depth;
+  }
+  p = ray.origin + ray.dir * depth;
+  return Finite(p);
+}
+
+void BallFilter::StartTrack(const BallObservation& obs) {
+  count_ = 0;
+  tracking_ = true;
+  off_count_ = 0;
+  cand_valid_ = false;
+  b_pending_ = false;
+  Eigen::Vector3f p0 = Eigen::Vector3f::Zero();
+  PointOf(obs, p0);
+  seg_ = Segment{};
+  seg_.start_us = obs.t_us;
+  seg_.motion = p0.z() - cfg_.ball_radius_m < cfg_.roll_tolerance_m + 0.01f * p0.head<2>().norm()
+                    ? Motion::kRolling
+                    : Motion::kAir;
+  Push(obs);
+  t_ref_us_ = obs.t_us;
+  Vec6 nominal = Vec6::Zero();
+  for (int j = 0; j < 3; ++j) nominal(j) = p0(j);
+  fit_ = Solve(seg_, nominal);
+  if (!fit_.ok) tracking_ = false;
+}
+
+// A floor fit of a ball in the air runs far out along near-horizontal rays: the flight is fitted
+// from the current state and from nearer points on the newest ray (at rest); the best plausible
+// fit wins.
+BallFilter::Fit BallFilter::SolveFlight(const Segment& seg) const {
+  Fit fits[3];
+  fits[0] = Solve(seg, fit_.x);
+  const Stored& nw = Newest(0);
+  for (int i = 1; i < 3; ++i) {
+    Vec6 start = Vec6::Zero();
+    start.head<3>() = origin_[nw.rays[0].camera] + nw.rays[0].dir * (i == 1 ? 2.f : 5.f);
+    fits[i] = Solve(seg, start);
+  }
+  int best = 0;
+  for (int i = 1; i < 3; ++i) {
+    if (Plausible(fits[i]) && (!Plausible(fits[best]) || fits[i].chi2 < fits[best].chi2)) best = i;
+  }
+  // Another plausible flight nearly as good but elsewhere: the rays cannot tell them apart yet.
+  for (int i = 0; i < 3; ++i) {
+    if (i != best && Plausible(fits[i]) && fits[i].chi2 < fits[best].chi2 + kAmbiguousChi2 &&
+        (fits[i].x.head<3>() - fits[best].x.head<3>()).norm() > cfg_.unobservable_sigma_m) {
+      fits[best].ambiguous = true;
+    }
+  }
+  return fits[best];
+}
+
+void BallFilter::Refit() {
+  Fit f = Solve(seg_, fit_.x);
+  if (Plausible(f)) {
+    fit_ = f;
+    return;
+  }
+  // Gauss-Newton from a poor state can land behind a camera or inside the robot, and a floor fit
+  // of a ball in the air runs out along near-horizontal rays: the flight fitted from points on
+  // the rays, else the frame alone.
+  Segment air = seg_;
+  air.motion = Motion::kAir;
+  air.at_rest = false;
+  f = SolveFlight(air);
+  if (Plausible(f)) {
+    seg_ = air;
+    fit_ = f;
+    return;
+  }
+  BallObservation newest;
+  newest.t_us = Newest(0).t_us;
+  newest.n_rays = Newest(0).n;
+  for (int k = 0; k < newest.n_rays; ++k) {
+    const StoredRay& r = Newest(0).rays[k];
+    BallRay& out = newest.rays[k];
+    out.origin = origin_[r.camera];
+    out.dir = r.dir;
+    out.sigma_h_rad = r.sigma_h;
+    out.sigma_v_rad = r.sigma_v;
+    out.range_m = r.range;
+    out.range_sigma_m = r.range_sigma;
+    out.camera = r.camera;
+  }
+  StartTrack(newest);
+}
+
+// Bounce check before the newest observation (already pushed) is fitted: the current arc meets
+// the floor before it. The rebound (v_out = -b v_in vertically, tangential factor horizontally)
+// starts a new segment with the contact as its prior, if the new frame fits it better than the
+// arc continued through the floor.
+bool BallFilter::TryBounce(uint64_t t_new_us) {
+  if (seg_.motion != Motion::kAir || !fit_.ok) return false;
+  const float dt = Seconds(t_new_us, t_ref_us_);
+  Eigen::Vector3f p = fit_.x.head<3>(), v = fit_.x.tail<3>();
+  const float r = cfg_.ball_radius_m, g = cfg_.gravity_mps2;
+  if (v.z() >= 0.f && p.z() > r) {
+    // Still rising: can it come down before t_new at all?
+    if (v.z() / g >= dt) return false;
+  }
+  uint64_t tc = 0;
+  float cx = 0, cy = 0;
+  int nc = 0;
+  Eigen::Vector3f pe, ve;
+  BallMode mode;
+  // Find the first contact in (t_ref, t_new]: evolve the arc without its bounces.
+  Evolve(dt, pe, ve, mode, &tc, &cx, &cy, 1, nc);
+  if (nc == 0 || tc > t_new_us) return false;
+  // State just before the contact on the current arc.
+  const float tau_c = Seconds(tc, t_ref_us_);
+  Eigen::Vector3f a, adot;
+  Accel(Motion::kAir, v, tau_c, a, adot);
+  const Eigen::Vector3f pc = p + v * tau_c + a;
+  const Eigen::Vector3f vin = v + adot;
+  if (vin.z() >= 0.f) return false;
+  Segment next;
+  next.start_us = tc;
+  next.has_prior = true;
+  next.prior_us = tc;
+  next.v_in_z = -vin.z();
+  next.v_in_h = std::hypot(vin.x(), vin.y());
+  const float vz_out = b_ * next.v_in_z;
+  next.motion = vz_out < cfg_.min_bounce_vz_mps ? Motion::kRolling : Motion::kAir;
+  next.bounced = next.motion == Motion::kAir;
+  const Eigen::Vector3f vout(tangential_ * vin.x(), tangential_ * vin.y(),
+                             next.motion == Motion::kAir ? vz_out : 0.f);
+  const Eigen::Vector3f pos_sig(std::sqrt(std::max(fit_.cov(0, 0), 0.f)) + 0.03f,
+                                std::sqrt(std::max(fit_.cov(1, 1), 0.f)) + 0.03f, 0.01f);
+  for (int j = 0; j < 3; ++j) {
+    next.prior_mean[j] = j == 2 ? r : pc(j);
+    next.prior_mean[3 + j] = vout(j);
+    next.prior_sigma[j] = pos_sig(j);
+  }
+  next.prior_sigma[3] = next.prior_sigma[4] = 0.3f * next.v_in_h + 0.2f;
+  next.prior_sigma[5] = 0.25f * next.v_in_z + 0.2f;
+  // Compare on the newest frame: old arc continued vs the rebound's prior.
+  const Stored& s = Newest(0);
+  const float chi_old = ObsChi2(s, seg_, fit_.x, t_ref_us_);
+  Vec6 xr;
+  const float tr = Seconds(t_ref_us_, tc);  // reference state of the rebound at t_ref (tr <= 0)
+  Eigen::Vector3f ar, ardot;
+  Accel(next.motion, vout, tr, ar, ardot);
+  xr.head<3>() = Eigen::Vector3f(next.prior_mean[0], next.prior_mean[1], r) + vout * tr + ar;
+  xr.tail<3>() = vout + ardot;
+  const float chi_new = ObsChi2(s, next, xr, t_ref_us_);
+  if (!(chi_new < chi_old)) return false;
+  seg_ = next;
+  b_pending_ = next.motion == Motion::kAir && next.v_in_z > 1.f;
+  // The rebound's state at the new reference time is the nominal for the refit.
+  const float tn = Seconds(t_new_us, tc);
+  Accel(next.motion, vout, tn, ar, ardot);
+  fit_.x.head<3>() = Eigen::Vector3f(pc.x(), pc.y(), r) + vout * tn + ar;
+  fit_.x.tail<3>() = vout + ardot;
+  if (next.motion == Motion::kRolling) {
+    fit_.x(2) = r;
+    fit_.x(5) = 0;
+  }
+  return true;
+}
+
+uint16_t BallFilter::Update(const BallObservation& in) {
+  if (have_time_ && in.t_us <= last_t_us_) return kFlagBadTimestamp;
+  // Validate the rays: finite, unit, not steeply up, not into the robot's own body.
+  BallObservation obs;
+  obs.t_us = in.t_us;
+  const float r = cfg_.ball_radius_m;
+  for (int i = 0; i < std::min(in.n_rays, BallObservation::kMaxRays); ++i) {
+    BallRay ray = in.rays[i];
+    const float n = ray.dir.norm();
+    if (!Finite(ray.origin) || !std::isfinite(n) || n < 0.5f || ray.camera > 1 ||
+        !(ray.sigma_h_rad > 0.f) || !(ray.sigma_v_rad > 0.f) || !std::isfinite(ray.sigma_h_rad) ||
+        !std::isfinite(ray.sigma_v_rad)) {
+      continue;
+    }
+    ray.dir /= n;
+    if (ray.dir.z() > kMaxUpwardDirZ) continue;
+    if (ray.dir.z() < -1e-3f && ray.origin.z() > r) {
+      const Eigen::Vector3f f = ray.origin + ray.dir * ((r - ray.origin.z()) / ray.dir.z());
+      if (f.head<2>().norm() < cfg_.robot_radius_m) continue;
+    }
+    if (!(std::isfinite(ray.range_m) && std::isfinite(ray.range_sigma_m) && ray.range_m > 0.f &&
+          ray.range_sigma_m > 0.f)) {
+      ray.range_m = ray.range_sigma_m = 0.f;
+    }
+    obs.rays[obs.n_rays++] = ray;
+  }
+  if (obs.n_rays == 0) return in.n_rays > 0 ? kFlagOutlierRejected : 0;
+  Eigen::Vector3f point;
+  const bool have_point = PointOf(obs, point);
+  // Beyond any field (a lone omni ray's floor point says nothing of a ball in the air).
+  const bool point_measured = obs.n_rays == 2 || obs.rays[0].range_m > 0.f;
+  if (have_point && point_measured &&
+      (point.head<2>().norm() > cfg_.max_range_m || point.z() > cfg_.max_height_m)) {
+    return kFlagOutOfField;
+  }
+  have_time_ = true;
+  last_t_us_ = obs.t_us;
+  for (int i = 0; i < obs.n_rays; ++i) origin_[obs.rays[i].camera] = obs.rays[i].origin;
+
+  if (!tracking_ || obs.t_us > t_ref_us_ + cfg_.coast_us) {
+    if (!have_point) return kFlagOutlierRejected;
+    StartTrack(obs);
+    return tracking_ ? 0 : kFlagOutlierRejected;
+  }
+
+  // Gate: each ray against the prediction.
+  Eigen::Vector3f pp, vp, sp;
+  BallMode mp;
+  StateAt(obs.t_us, pp, vp, mp);
+  SigmaAt(obs.t_us, sp);
+  const float dt = Seconds(obs.t_us, t_ref_us_);
+  BallObservation kept;
+  kept.t_us = obs.t_us;
+  float off = 0;  // largest ray distance from the prediction, in ray sigmas
+  for (int i = 0; i < obs.n_rays; ++i) {
+    const BallRay& ray = obs.rays[i];
+    const Eigen::Vector3f w = pp - ray.origin;
+    const float along = w.dot(ray.dir);
+    const float dist = along > 0.f ? (w - along * ray.dir).norm() : w.norm();
+    const float ray_sigma = std::max(ray.sigma_h_rad, ray.sigma_v_rad) * std::max(along, 0.f);
+    float gate =
+        cfg_.gate_min_m + cfg_.outlier_growth_mps * dt + cfg_.gate_sigmas * (sp.norm() + ray_sigma);
+    // Range along the rays unknown: only the direction to the prediction can be checked.
+    if (!observable_) gate = std::max(gate, kUnobservableGateRad * w.norm());
+    if (dist <= gate) {
+      kept.rays[kept.n_rays++] = ray;
+      off = std::max(off, dist / (ray_sigma + kSigmaFloorM));
+    }
+  }
+  if (kept.n_rays == 0) {
+    // A jump: confirmed when the next frame agrees with it, then the track restarts there.
+    Eigen::Vector3f pc;
+    if (cand_valid_ && have_point && PointOf(cand_, pc) &&
+        (pc - point).norm() <
+            cfg_.outlier_error_m * 0.5f + cfg_.outlier_growth_mps * Seconds(obs.t_us, cand_.t_us)) {
+      const BallObservation first = cand_;
+      StartTrack(first);
+      if (tracking_) {
+        Push(obs);
+        t_ref_us_ = obs.t_us;
+        Refit();
+        return 0;
+      }
+      return kFlagOutlierRejected;
+    }
+    cand_ = obs;
+    cand_valid_ = have_point;
+    return kFlagOutlierRejected;
+  }
+  cand_valid_ = false;
+
+  Push(kept);
+  const bool bounced = TryBounce(obs.t_us);
+  // Nominal at the new reference time: the current model moved forward.
+  if (fit_.ok && !bounced) {
+    Eigen::Vector3f p1, v1;
+    BallMode m1;
+    if (StateAt(obs.t_us, p1, v1, m1)) {
+      fit_.x.head<3>() = p1;
+      fit_.x.tail<3>() = v1;
+    }
+  }
+  t_ref_us_ = obs.t_us;
+  Refit();
+
+  // Model checks on the segment's frames.
+  int seg_frames = 0;
+  for (int i = 0; i < count_ && Newest(i).t_us >= seg_.start_us; ++i) ++seg_frames;
+  off_count_ = off > kOffSigma ? off_count_ + 1 : 0;
+  bool switched = false;
+  if (seg_frames >= 2) {
+    // Rolling vs flying over the same frames: a ball that left the floor (or a flight that turns
+    // out to hug it). Flying needs a clear gain, and to be above the floor now.
+    Segment other = seg_;
+    other.motion = seg_.motion == Motion::kRolling ? Motion::kAir : Motion::kRolling;
+    other.at_rest = false;
+    if (other.motion == Motion::kRolling) {
+      other.has_prior = false;
+      other.bounced = false;
+    }
+    const Fit fo = other.motion == Motion::kAir ? SolveFlight(other) : Solve(other, fit_.x);
+    if (Plausible(fo)) {
+      if (other.motion == Motion::kAir) {
+        if (fo.chi2 + cfg_.model_switch_chi2 < fit_.chi2 && fo.x(2) > r + cfg_.roll_tolerance_m) {
+          seg_ = other;
+          fit_ = fo;
+          switched = true;
+        }
+      } else if (seg_frames >= 4 && fo.chi2 <= fit_.chi2 + 2.f &&
+                 std::fabs(fit_.x(5)) < cfg_.min_bounce_vz_mps &&
+                 fit_.x(2) < r + cfg_.roll_tolerance_m) {
+        seg_ = other;
+        fit_ = fo;
+        b_pending_ = false;
+        switched = true;
+      }
+    }
+  }
+  if (!switched && off_count_ >= 2 && seg_frames > 2) {
+    // Has the motion changed (kick, deflection, an unseen bounce)? A likelihood-ratio test on the
+    // frames since the first that disagreed: a new segment there (continuous in position, free in
+    // velocity; rolling unless flying is clearly better) must explain them much better.
+    Segment cand[2];
+    Fit fits[2];
+    const int n_off = std::min(off_count_, seg_frames - 1);
+    const uint64_t start = Newest(n_off - 1).t_us;
+    // The segment as it is, against the segment cut before `start` plus a new one after it.
+    const Fit before = Solve(seg_, fit_.x, Newest(n_off).t_us);
+    for (int m = 0; m < 2; ++m) {
+      cand[m].motion = m == 0 ? Motion::kRolling : Motion::kAir;
+      cand[m].start_us = start;
+      fits[m] = Solve(cand[m], fit_.x);
+    }
+    // Flying needs a clear gain, and enough rows to be determined at all (6 unknowns + 2).
+    const bool air_ok = Plausible(fits[1]) && fits[1].rows >= 8;
+    const int pick =
+        fits[0].ok && (!air_ok || fits[0].chi2 <= fits[1].chi2 + cfg_.model_switch_chi2) ? 0 : 1;
+    const float chi_old = fit_.chi2, chi_split = before.chi2 + fits[pick].chi2;
+    if (before.ok && Plausible(fits[pick]) && fits[pick].rows >= 6 &&
+        chi_split + cfg_.restart_chi2 < chi_old) {
+      seg_ = cand[pick];
+      fit_ = fits[pick];
+      b_pending_ = false;
+      off_count_ = 0;
+      switched = true;
+    }
+  }
+  if (!switched && seg_.motion == Motion::kRolling && !seg_.at_rest &&
+      std::hypot(fit_.x(3), fit_.x(4)) < kStopCheckSpeedMps) {
+    // Has a slow rolling ball stopped? Over its last frames (>= kRestFrames, >= 0.25 s), a ball at
+    // rest must fit as well as a free rolling one (two parameters fewer).
+    int k = 0;
+    while (k < seg_frames && (k < kRestFrames || Seconds(t_ref_us_, Newest(k).t_us) < 0.25f)) ++k;
+    if (k < seg_frames || k == count_) {
+      Segment rest = seg_, roll = seg_;
+      rest.at_rest = true;
+      rest.has_prior = roll.has_prior = false;
+      rest.start_us = roll.start_us = Newest(k - 1).t_us;
+      const Fit fr = Solve(rest, fit_.x);
+      const Fit fm = Solve(roll, fit_.x);
+      if (fr.ok && fm.ok && fr.chi2 <= fm.chi2 + 6.f) {
+        seg_ = rest;
+        fit_ = fr;
+      }
+    }
+  }
+  // Restitution from a rebound seen long enough: its fitted take-off speed over the speed in.
+  if (b_pending_ && seg_.bounced && seg_frames >= 5 && cfg_.estimate_bounce_factor) {
+    const float since = Seconds(t_ref_us_, seg_.start_us);
+    const float vz_out = fit_.x(5) + cfg_.gravity_mps2 * since;
+    const float b_est = vz_out / seg_.v_in_z;
+    if (b_est > cfg_.min_bounce_factor && b_est < cfg_.max_bounce_factor) {
+      // The first observed rebound replaces the configured value; later ones are averaged in.
+      const float n = static_cast<float>(b_samples_);
+      b_ = (b_ * n + b_est) / (n + 1.f);
+      ++b_samples_;
+      if (seg_.v_in_h > 0.5f) {
+        const float t_est = fit_.x.head<2>().norm() > 0.f
+                                ? std::hypot(fit_.x(3), fit_.x(4)) / seg_.v_in_h
+                                : tangential_;
+        if (t_est > 0.3f && t_est <= 1.05f) tangential_ = 0.5f * (tangential_ + t_est);
+      }
+    }
+    b_pending_ = false;
+  }
+  if (!fit_.x.allFinite() || !fit_.cov.allFinite()) {
+    Reset();
+    return kFlagOutlierRejected;
+  }
+  if (fit_.x.tail<3>().norm() > cfg_.max_speed_mps) {
+    // No ball moves like that. A floor fit of one camera's rays of a ball in the air runs away
+    // along them: a flight over the same frames may explain them. Otherwise the frames disagree
+    // beyond any motion (a wrong detection before): start again from this frame.
+    Segment air = seg_;
+    air.motion = Motion::kAir;
+    air.at_rest = false;
+    const Fit fa = SolveFlight(air);
+    if (Plausible(fa) && fa.x.tail<3>().norm() <= cfg_.max_speed_mps) {
+      seg_ = air;
+      fit_ = fa;
+    } else {
+      StartTrack(kept);
+    }
+  }
+  const float pos_var = fit_.cov(0, 0) + fit_.cov(1, 1) + fit_.cov(2, 2);
+  observable_ = !fit_.ambiguous && pos_var < cfg_.unobservable_sigma_m * cfg_.unobservable_sigma_m;
+  return observable_ ? 0 : kFlagUnobservable;
+}
+
+// Forward in time from the reference state, piecewise closed form: arcs (gravity, drag at the
+// midpoint velocity) to each floor contact, the rebound, then rolling with deceleration to rest.
+void BallFilter::Evolve(float dt_s, Eigen::Vector3f& p, Eigen::Vector3f& v, BallMode& mode,
+                        uint64_t* contacts, float* cx, float* cy, int max_contacts,
+                        int& n_contacts) const {
+  n_contacts = 0;
+  p = fit_.x.head<3>();
+  v = fit_.x.tail<3>();
+  Motion motion = seg_.motion;
+  bool bounced = seg_.bounced;
+  const float r = cfg_.ball_radius_m, g = cfg_.gravity_mps2;
+  float t = 0;
   for (int k = 0; k <= kMaxContacts; ++k) {
-    const float disc = va * va + 2.f * g * std::max(za - r, 0.f);
-    const float s = (va + std::sqrt(disc)) / g;  // time to the next contact (>= 0 if descending)
-    if (dt_s < tau + s || k == kMaxContacts) {
-      const float u = dt_s - tau;
-      z = za + va * u - 0.5f * g * u * u;
-      vz = va - g * u;
+    const float left = dt_s - t;
+    if (motion == Motion::kAir) {
+      // Time to the floor: the parabola's root, refined twice with the drag at that time.
+      float az = -g, tc = -1;
+      for (int it = 0; it < 3; ++it) {
+        const float disc = v.z() * v.z() - 2.f * az * (p.z() - r);
+        if (disc < 0.f || az >= 0.f) break;
+        tc = (-v.z() - std::sqrt(disc)) / az;
+        Eigen::Vector3f a, dv;
+        Accel(Motion::kAir, v, tc, a, dv);
+        az = tc > 1e-4f ? 2.f * a.z() / (tc * tc) : -g;
+      }
+      if (tc < 0.f || left < tc || k == kMaxContacts) {
+        Eigen::Vector3f a, adot;
+        Accel(Motion::kAir, v, left, a, adot);
+        p += v * left + a;
+        v += adot;
+        mode = bounced ? BallMode::kBouncing : BallMode::kFlying;
+        return;
+      }
+      Eigen::Vector3f a, adot;
+      Accel(Motion::kAir, v, tc, a, adot);
+      p += v * tc + a;
+      v += adot;
+      p.z() = r;
+      t += tc;
+      if (n_contacts < max_contacts) {
+        contacts[n_contacts] = AddSeconds(t_ref_us_, t);
+        cx[n_contacts] = p.x();
+        cy[n_contacts] = p.y();
+      }
+      ++n_contacts;
+      const float vz_out = b_ * std::fabs(v.z());
+      v.x() *= tangential_;
+      v.y() *= tangential_;
+      if (vz_out < cfg_.min_bounce_vz_mps) {
+        motion = Motion::kRolling;
+        v.z() = 0;
+      } else {
+        v.z() = vz_out;
+        bounced = true;
+      }
+      continue;
+    }
+    mode = BallMode::kRolling;
+    p.z() = r;
+    v.z() = 0;
+    const float s = std::hypot(v.x(), v.y());
+    if (s < kRestSpeedMps) {
+      v.setZero();
       return;
     }
-    const float v_out = b_ * std::fabs(va - g * s);
-    tau += s;
-    ++bounces;
-    if (v_out < cfg_.min_bounce_vz_mps) {
-      rolling = true;
-      z = r;
-      vz = 0;
-      return;
+    const float d = cfg_.rolling_decel_mps2 + cfg_.drag_per_m * s * s;
+    const Eigen::Vector3f u(v.x() / s, v.y() / s, 0.f);
+    const float stop = s / d;
+    if (left >= stop) {
+      p += u * (0.5f * s * stop);
+      v.setZero();
+    } else {
+      p += u * (s * left - 0.5f * d * left * left);
+      v = u * (s - d * left);
     }
-    za = r;
-    va = v_out;
+    return;
   }
 }
 
 bool BallFilter::StateAt(uint64_t t_us, Eigen::Vector3f& p_m, Eigen::Vector3f& v_mps,
                          BallMode& mode) const {
-  if (!tracking_) {
+  if (!tracking_ || !fit_.ok) {
     mode = BallMode::kNone;
     return false;
   }
   const float dt = Seconds(t_us, t_ref_us_);
-  float z, vz;
-  bool rolling;
-  int bounces;
-  ZAt(dt, z, vz, rolling, bounces);
-  p_m = Eigen::Vector3f(x0_ + vx_ * dt, y0_ + vy_ * dt, z);
-  v_mps = Eigen::Vector3f(vx_, vy_, vz);
-  mode = rolling ? BallMode::kRolling
-                 : ((bounced_ || bounces > 0) ? BallMode::kBouncing : BallMode::kFlying);
+  if (dt <= 0.f) {
+    Eigen::Vector3f a, adot;
+    Accel(seg_.motion, fit_.x.tail<3>(), dt, a, adot);
+    p_m = fit_.x.head<3>() + fit_.x.tail<3>() * dt + a;
+    v_mps = fit_.x.tail<3>() + adot;
+    mode = seg_.motion == Motion::kRolling ? BallMode::kRolling
+           : seg_.bounced                  ? BallMode::kBouncing
+                                           : BallMode::kFlying;
+    return true;
+  }
+  int n = 0;
+  uint64_t tc;
+  float x, y;
+  Evolve(dt, p_m, v_mps, mode, &tc, &x, &y, 0, n);
+  return true;
+}
+
+bool BallFilter::SigmaAt(uint64_t t_us, Eigen::Vector3f& sigma_m) const {
+  if (!tracking_ || !fit_.ok) return false;
+  const float tau = Seconds(t_us, t_ref_us_);
+  const float q = cfg_.accel_noise_mps2 * cfg_.accel_noise_mps2;
+  for (int j = 0; j < 3; ++j) {
+    const float var = fit_.cov(j, j) + 2.f * tau * fit_.cov(j, 3 + j) +
+                      tau * tau * fit_.cov(3 + j, 3 + j) + q * std::fabs(tau * tau * tau) / 3.f;
+    sigma_m(j) = std::sqrt(std::max(var, 0.f));
+  }
   return true;
 }
 
 int BallFilter::ContactsAfter(uint64_t t_us, uint64_t* t_out, float* x_out, float* y_out,
                               int max) const {
-  if (!tracking_ || vert_ == Vertical::kRolling || max <= 0) return 0;
-  const float r = cfg_.ball_radius_m, g = cfg_.gravity_mps2;
-  const float after = Seconds(t_us, t_ref_us_);
-  float za = z0_, va = vz0_, tau = 0;
+  if (!tracking_ || !fit_.ok || max <= 0) return 0;
+  // Follow the model for 2.5 s beyond t_us (the paper's Fig. 5 horizon).
+  const float horizon = std::max(Seconds(t_us, t_ref_us_), 0.f) + 2.5f;
+  uint64_t tc[kMaxContacts];
+  float cx[kMaxContacts], cy[kMaxContacts];
+  Eigen::Vector3f p, v;
+  BallMode mode;
   int n = 0;
-  for (int k = 0; k < kMaxContacts && n < max; ++k) {
-    const float disc = va * va + 2.f * g * std::max(za - r, 0.f);
-    const float s = (va + std::sqrt(disc)) / g;
-    tau += s;
-    if (tau > after) {
-      const float t_rel_us = tau * 1e6f;
-      const int64_t t_abs = static_cast<int64_t>(t_ref_us_) + static_cast<int64_t>(t_rel_us);
-      t_out[n] = t_abs > 0 ? static_cast<uint64_t>(t_abs) : 0;
-      x_out[n] = x0_ + vx_ * tau;
-      y_out[n] = y0_ + vy_ * tau;
-      ++n;
-    }
-    const float v_out = b_ * std::fabs(va - g * s);
-    if (v_out < cfg_.min_bounce_vz_mps) break;
-    za = r;
-    va = v_out;
+  Evolve(horizon, p, v, mode, tc, cx, cy, kMaxContacts, n);
+  n = std::min(n, static_cast<int>(kMaxContacts));
+  int out = 0;
+  for (int i = 0; i < n && out < max; ++i) {
+    if (tc[i] <= t_us) continue;
+    t_out[out] = tc[i];
+    x_out[out] = cx[i];
+    y_out[out] = cy[i];
+    ++out;
   }
-  return n;
-}
-
-uint16_t BallFilter::Update(const BallMeasurement& m) {
-  if (!Finite(m.p_m)) return kFlagOutlierRejected;
-  if (std::hypot(m.p_m.x(), m.p_m.y()) > cfg_.max_range_m || m.p_m.z() > cfg_.max_height_m ||
-      m.p_m.z() < cfg_.min_height_m) {
-    return kFlagOutOfField;
-  }
-  if (have_time_ && m.t_us <= last_t_us_) return kFlagBadTimestamp;
-  have_time_ = true;
-  last_t_us_ = m.t_us;
-
-  if (!tracking_ || m.t_us - last_meas_us_ > cfg_.coast_us) {
-    StartTrack(m);
-    return 0;
-  }
-
-  // Vertical hypotheses before comparing with the prediction: a floor contact since the last
-  // z observation (bounce), or a rolling ball leaving the floor.
-  const float r = cfg_.ball_radius_m, g = cfg_.gravity_mps2;
-  const float dt = Seconds(m.t_us, t_ref_us_);
-  Eigen::Vector3f p_pred, v_pred;
-  BallMode mode_pred;
-  StateAt(m.t_us, p_pred, v_pred, mode_pred);
-  bool bounce_now = false;
-  float t_contact_s = 0, v_in = 0;
-  if (vert_ == Vertical::kAirborne && m.z_valid) {
-    // First contact of the current arc after the reference time.
-    const float disc = vz0_ * vz0_ + 2.f * g * std::max(z0_ - r, 0.f);
-    const float s = (vz0_ + std::sqrt(disc)) / g;
-    const float frame_s = std::max(dt, 0.f);
-    if (s <= dt + 0.5f * frame_s) {
-      const float tc = std::min(s, dt);
-      v_in = std::fabs(vz0_ - g * tc);
-      const float v_out = b_ * v_in;
-      const float u = dt - tc;
-      const float z_bounce = r + v_out * u - 0.5f * g * u * u;
-      const float z_nobounce = z0_ + vz0_ * dt - 0.5f * g * dt * dt;
-      if (std::fabs(m.p_m.z() - z_bounce) <= std::fabs(m.p_m.z() - z_nobounce)) {
-        bounce_now = true;
-        t_contact_s = tc;
-        p_pred.z() = std::max(z_bounce, r);
-      }
-    }
-  }
-
-  // Prediction error gates (xy only when z is an assumption).
-  Eigen::Vector3f err = m.p_m - p_pred;
-  if (!m.z_valid) err.z() = 0;
-  const float e = err.norm();
-  const float since_s = Seconds(m.t_us, last_meas_us_);
-  const float outlier_gate = cfg_.outlier_error_m + cfg_.outlier_growth_mps * since_s;
-  if (e > outlier_gate) {
-    // A jump is believed only when the next measurement confirms it.
-    if (cand_valid_ && m.t_us - cand_.t_us <= cfg_.coast_us &&
-        (m.p_m - cand_.p_m).norm() <=
-            cfg_.outlier_error_m + cfg_.outlier_growth_mps * Seconds(m.t_us, cand_.t_us)) {
-      const BallMeasurement first = cand_;
-      StartTrack(first);
-      Push(m);
-      last_meas_us_ = m.t_us;
-      Refit();
-      return 0;
-    }
-    cand_ = m;
-    cand_valid_ = true;
-    return kFlagOutlierRejected;
-  }
-  cand_valid_ = false;
-
-  if (bounce_now) {
-    seg_start_us_ = t_ref_us_ + static_cast<uint64_t>(t_contact_s * 1e6f);
-    anchor_ = true;
-    v_in_mps_ = v_in;
-    b_pending_ = cfg_.estimate_bounce_factor;
-    bounced_ = true;
-    if (b_ * v_in < cfg_.min_bounce_vz_mps) {
-      vert_ = Vertical::kRolling;
-      bounced_ = false;
-      anchor_ = false;
-    }
-  } else if (vert_ == Vertical::kRolling && m.z_valid) {
-    const float dz = m.p_m.z() - r;
-    const float tol = RollTolerance(m.p_m);
-    lift_count_ = dz > 2.f * tol ? lift_count_ + 1 : 0;
-    if (lift_count_ >= 2 || dz > 6.f * tol) {
-      // Take-off between the last on-floor observation and the first lifted one.
-      vert_ = Vertical::kAirborne;
-      bounced_ = false;
-      anchor_ = false;
-      b_pending_ = false;
-      const int back = lift_count_ >= 2 ? lift_count_ - 1 : 0;  // lifted obs already stored
-      seg_start_us_ = count_ > back ? Newest(back).t_us : m.t_us;
-      lift_count_ = 0;
-    }
-  }
-
-  // Window: repeated large horizontal errors (kick, rebound off a robot) keep only the recent
-  // ones. Height has its own models (a bounce is not a reason to forget the x, y history).
-  const float e_xy = std::hypot(err.x(), err.y());
-  large_count_ = e_xy > cfg_.large_error_m ? large_count_ + 1 : 0;
-  if (large_count_ >= cfg_.shrink_after) {
-    KeepNewest(cfg_.shrink_after - 1);
-    large_count_ = 0;
-  }
-  Push(m);
-  last_meas_us_ = m.t_us;
-  Refit();
-  return 0;
-}
-
-void BallFilter::Refit() {
-  const Obs& newest = Newest(0);
-  const float advance_s = Seconds(newest.t_us, t_ref_us_);
-  t_ref_us_ = newest.t_us;
-  float t[kMaxWindow + 1] = {}, w[kMaxWindow + 1] = {}, ya[kMaxWindow + 1] = {},
-                       yb[kMaxWindow + 1] = {};
-  for (int i = 0; i < count_; ++i) {
-    const Obs& o = Newest(i);
-    t[i] = Seconds(o.t_us, t_ref_us_);
-    w[i] = 1.f;
-    ya[i] = o.p.x();
-    yb[i] = o.p.y();
-  }
-  FitLine(t, ya, w, count_, x0_, vx_);
-  FitLine(t, yb, w, count_, y0_, vy_);
-
-  if (vert_ == Vertical::kAirborne) {
-    const float g = cfg_.gravity_mps2, r = cfg_.ball_radius_m;
-    int n = 0;
-    for (int i = 0; i < count_; ++i) {
-      const Obs& o = Newest(i);
-      if (!o.z_valid || o.t_us < seg_start_us_) continue;
-      t[n] = Seconds(o.t_us, t_ref_us_);
-      ya[n] = o.p.z() + 0.5f * g * t[n] * t[n];  // remove gravity: a line remains
-      w[n] = 1.f;
-      ++n;
-    }
-    const int measured = n;
-    if (anchor_) {
-      t[n] = Seconds(seg_start_us_, t_ref_us_);
-      ya[n] = r + 0.5f * g * t[n] * t[n];
-      w[n] = kAnchorWeight;
-      ++n;
-    }
-    float t_lo = 0, t_hi = 0;
-    for (int i = 0; i < n; ++i) {
-      t_lo = i ? std::min(t_lo, t[i]) : t[i];
-      t_hi = i ? std::max(t_hi, t[i]) : t[i];
-    }
-    if (n >= 2 && t_hi - t_lo > 0.005f) {
-      FitLine(t, ya, w, n, z0_, vz0_);
-    } else if (anchor_) {
-      // Right at a floor contact: the rebound predicted by v_out = b v_in.
-      const float u = -Seconds(seg_start_us_, t_ref_us_);
-      const float v_out = b_ * v_in_mps_;
-      z0_ = r + v_out * u - 0.5f * g * u * u;
-      vz0_ = v_out - g * u;
-    } else if (n >= 1) {
-      // One point on a new arc: keep the velocity the previous model had at this time.
-      z0_ = ya[0] - 0.5f * g * t[0] * t[0];
-      vz0_ -= g * advance_s;
-    }
-    if (anchor_ && b_pending_ && measured >= 4 && v_in_mps_ > 0.5f) {
-      const float ts = Seconds(seg_start_us_, t_ref_us_);
-      const float v_out = vz0_ - g * ts;
-      const float b_est = v_out / v_in_mps_;
-      if (b_est > cfg_.min_bounce_factor && b_est < cfg_.max_bounce_factor) {
-        b_ = 0.5f * (b_ + b_est);
-      }
-      b_pending_ = false;
-    }
-    // A long arc hugging the floor is a rolling ball after all.
-    if (measured >= 4 && !anchor_) {
-      float ss = 0;
-      int k = 0;
-      for (int i = 0; i < count_ && k < measured; ++i) {
-        const Obs& o = Newest(i);
-        if (!o.z_valid || o.t_us < seg_start_us_) continue;
-        ss += (o.p.z() - r) * (o.p.z() - r);
-        ++k;
-      }
-      if (std::sqrt(ss / static_cast<float>(k)) < RollTolerance(newest.p) &&
-          std::fabs(vz0_) < cfg_.min_bounce_vz_mps) {
-        vert_ = Vertical::kRolling;
-      }
-    }
-  }
-  if (vert_ == Vertical::kRolling) {
-    z0_ = cfg_.ball_radius_m;
-    vz0_ = 0;
-  }
-  if (!std::isfinite(x0_) || !std::isfinite(y0_) || !std::isfinite(vx_) || !std::isfinite(vy_) ||
-      !std::isfinite(z0_) || !std::isfinite(vz0_)) {
-    // Cannot happen with finite inputs; never let a NaN escape.
-    tracking_ = false;
-    count_ = 0;
-  }
+  return out;
 }
 
 void BallFilter::FillState(uint64_t t_us, uint32_t ahead_us, BallState& out) const {
   out.found = false;
   out.mode = BallMode::kNone;
-  out.flags &=
-      static_cast<uint16_t>(~(kFlagCoasting | kFlagLost | kFlagHasBounce | kFlagHasPrediction));
-  if (!tracking_) return;
-  if (t_us > last_meas_us_ + cfg_.coast_us) {
+  out.flags &= static_cast<uint16_t>(
+      ~(kFlagCoasting | kFlagLost | kFlagHasBounce | kFlagHasPrediction | kFlagUnobservable));
+  if (!tracking_ || !fit_.ok) return;
+  if (t_us > t_ref_us_ + cfg_.coast_us) {
     out.flags |= kFlagLost;
     return;
   }
-  if (t_us != last_meas_us_) out.flags |= kFlagCoasting;
-  Eigen::Vector3f p, v;
+  if (t_us != t_ref_us_) out.flags |= kFlagCoasting;
+  Eigen::Vector3f p, v, s;
   BallMode mode;
   StateAt(t_us, p, v, mode);
+  SigmaAt(t_us, s);
   out.found = true;
   out.x_m = p.x();
   out.y_m = p.y();
@@ -391,7 +874,11 @@ void BallFilter::FillState(uint64_t t_us, uint32_t ahead_us, BallState& out) con
   out.vx_mps = v.x();
   out.vy_mps = v.y();
   out.vz_mps = v.z();
+  out.sigma_x_m = s.x();
+  out.sigma_y_m = s.y();
+  out.sigma_z_m = s.z();
   out.mode = mode;
+  if (!observable_) out.flags |= kFlagUnobservable;
   uint64_t tb;
   float bx, by;
   if (ContactsAfter(t_us, &tb, &bx, &by, 1) == 1) {

@@ -1,9 +1,11 @@
 #pragma once
-// 3D ball tracking and prediction (paper IV-C): the Lauer/Lange/Riedmiller sliding-window
-// regression for x, y (constant velocity, least squares over the last n observations, the
-// window shrinks after repeated large prediction errors) extended to z with three models:
-// rolling (z = r), flying (parabola under gravity), bouncing (v_out = -b v_in).
-// Time comes only from the measurements (exposure timestamps); no clock, no heap.
+// 3D ball tracking and prediction from viewing rays (issue 12). The paper triangulates two rays
+// per frame and fits the motion afterwards; here the motion is fitted to the rays themselves, so a
+// frame with one ray (omni only, persp only + its apparent size) still counts, and a ball in flight
+// seen by one camera is placed in 3D by gravity. Sliding-window weighted least squares over the
+// rays of the current motion segment (rolling / flying / bouncing), re-linearised twice; see
+// README.md for why this estimator. Time comes only from the exposure timestamps; no clock, no
+// heap, bounded work per update.
 #include <cstdint>
 
 #include <Eigen/Core>
@@ -15,94 +17,155 @@ namespace bv {
 struct BallFilterConfig {
   float ball_radius_m = 0.11f;
   float gravity_mps2 = 9.81f;
-  float bounce_factor = 0.7f;          // b, initial value
+  // Quadratic air drag, acceleration -k |v| v: k = rho Cd A / (2 m); 1.2 kg/m^3, Cd 0.25 (super-
+  // critical), A = pi 0.11^2, 0.43 kg (../shared/data/ball_physics).
+  float drag_per_m = 0.0133f;
+  float rolling_decel_mps2 = 0.6f;     // rolling resistance (+ drag) on carpet
+  float bounce_factor = 0.7f;          // b, initial value (vertical restitution)
   bool estimate_bounce_factor = true;  // refine b from each observed bounce
   float min_bounce_factor = 0.3f, max_bounce_factor = 0.95f;
-  float min_bounce_vz_mps = 0.5f;      // a rebound slower than this ends in rolling
-  int max_window = 10;                 // n, 3..kMaxWindow
-  float large_error_m = 0.15f;         // prediction error counted as "large" (shrinks the window)
-  int shrink_after = 2;                // consecutive large errors before the window shrinks
-  float outlier_error_m = 1.0f;        // a single measurement further off than this is rejected
-  float outlier_growth_mps = 3.0f;     // ... gate grows with the time since the last measurement
-  float roll_tolerance_m = 0.05f;      // |z - r| still counted as on the floor
-  float roll_tolerance_per_m = 0.01f;  // ... plus this per metre of range (triangulation noise)
-  uint32_t coast_us = 500000;          // prediction only, then lost
-  float max_range_m = 25.f;            // beyond: far outside any field, rejected
-  float max_height_m = 6.f, min_height_m = -0.5f;
+  float bounce_tangential = 0.8f;  // horizontal speed kept at a contact (friction), initial
+  float min_bounce_vz_mps = 0.5f;  // a rebound slower than this ends in rolling
+  int max_window = 12;             // frames in the fit, 4..kMaxWindow
+  // A ray further from the prediction than gate_min_m + gate_sigmas * (prediction and ray sigma)
+  // + outlier_growth_mps * time since the last frame is rejected; two such frames that agree with
+  // each other within outlier_error_m start a new track.
+  float gate_min_m = 0.3f, gate_sigmas = 4.f;
+  float outlier_error_m = 1.0f;
+  float outlier_growth_mps = 3.0f;
+  float max_speed_mps = 15.f;      // a fit faster than this is a wrong detection
+  float model_switch_chi2 = 16.f;  // chi^2 gain that makes the filter change the motion model
+  float restart_chi2 = 25.f;       // chi^2 gain that makes frames off the model a new segment
+  float roll_tolerance_m = 0.05f;  // a flying fit this close to the floor is rolling
+  float accel_noise_mps2 = 1.5f;   // unmodelled acceleration: grows the uncertainty when coasting
+  uint32_t coast_us = 500000;      // prediction only, then lost
+  float max_range_m = 25.f;        // beyond: far outside any field
+  float max_height_m = 6.f;
+  float unobservable_sigma_m = 0.5f;  // position sigma above this is flagged kFlagUnobservable
+  float robot_radius_m = 0.25f;       // a ray meeting the floor inside this radius sees the robot
 };
 
-struct BallMeasurement {
+/// One camera's viewing ray through the ball centre, with its angular uncertainty.
+struct BallRay {
+  Eigen::Vector3f origin = Eigen::Vector3f::Zero();
+  Eigen::Vector3f dir = Eigen::Vector3f::UnitY();  // unit
+  // 1-sigma angular error across the ray: horizontal (azimuth) and in the vertical plane.
+  float sigma_h_rad = 0.002f, sigma_v_rad = 0.002f;
+  // A range cue along the ray (apparent size): > 0 when present, with its 1-sigma.
+  float range_m = 0, range_sigma_m = 0;
+  uint8_t camera = 0;  // 0 omni, 1 perspective (origins are per camera)
+};
+
+/// What one frame pair contributes: 0, 1 or 2 rays.
+struct BallObservation {
+  static constexpr int kMaxRays = 2;
   uint64_t t_us = 0;
-  Eigen::Vector3f p_m = Eigen::Vector3f::Zero();
-  bool z_valid = true;  // false: z is an assumption (e.g. omni ray at the predicted height)
+  BallRay rays[kMaxRays];
+  int n_rays = 0;
 };
 
 class BallFilter {
  public:
-  static constexpr int kMaxWindow = 10;
+  static constexpr int kMaxWindow = 16;
   static constexpr int kMaxContacts = 16;  // floor contacts followed when predicting
 
   explicit BallFilter(const BallFilterConfig& config = {}) { Configure(config); }
-  /// Clamps the window to 3..kMaxWindow and resets the track.
+  /// Clamps the window to 4..kMaxWindow and resets the track.
   void Configure(const BallFilterConfig& config);
   void Reset();
 
-  /// Feeds one measurement. Returns the BallFlags describing what happened with it
-  /// (0 = accepted; kFlagBadTimestamp / kFlagOutOfField / kFlagOutlierRejected = ignored).
-  uint16_t Update(const BallMeasurement& m);
+  /// Feeds one frame's rays. Returns the BallFlags describing what happened (0 = used;
+  /// kFlagBadTimestamp / kFlagOutOfField / kFlagOutlierRejected = ignored, kFlagUnobservable).
+  uint16_t Update(const BallObservation& obs);
 
-  /// Model state at any time (past or future); false when there is no track.
+  /// Model state at any time (past or future, bounces included); false when there is no track.
   bool StateAt(uint64_t t_us, Eigen::Vector3f& p_m, Eigen::Vector3f& v_mps, BallMode& mode) const;
+  /// 1-sigma position uncertainty per axis at t_us (grows while coasting).
+  bool SigmaAt(uint64_t t_us, Eigen::Vector3f& sigma_m) const;
   /// Predicted floor contacts strictly after t_us (time, x, y), in order; returns the count.
   int ContactsAfter(uint64_t t_us, uint64_t* t_out, float* x_out, float* y_out, int max) const;
-  /// Fills position, velocity, mode, found, coasting/lost flags, next bounce and the prediction
-  /// `ahead_us` later for time t_us (the frame time). Leaves detections and ray_gap alone.
+  /// Fills position, velocity, sigma, mode, found, coasting/lost flags, next bounce and the
+  /// prediction `ahead_us` later for time t_us (the frame time). Leaves detections and ray_gap.
   void FillState(uint64_t t_us, uint32_t ahead_us, BallState& out) const;
 
   bool tracking() const { return tracking_; }
   int window_size() const { return count_; }
   float bounce_factor() const { return b_; }
-  uint64_t last_measurement_us() const { return last_meas_us_; }
+  uint64_t last_measurement_us() const { return t_ref_us_; }
+  /// The position along the rays is determined (false: e.g. one camera, no motion yet).
+  bool observable() const { return observable_; }
 
  private:
-  struct Obs {
-    uint64_t t_us;
-    Eigen::Vector3f p;
-    bool z_valid;
+  struct StoredRay {
+    Eigen::Vector3f dir;
+    float sigma_h, sigma_v, range, range_sigma;
+    uint8_t camera;
   };
-  enum class Vertical : uint8_t { kRolling, kAirborne };
+  struct Stored {
+    uint64_t t_us;
+    StoredRay rays[BallObservation::kMaxRays];
+    uint8_t n;
+  };
+  enum class Motion : uint8_t { kRolling, kAir };
+  // A motion segment: the model, where it starts, and what the previous segment says about its
+  // state at the start (a floor contact: position, rebound velocity), as a Gaussian.
+  struct Segment {
+    Motion motion = Motion::kRolling;
+    bool bounced = false;  // air segment that started at a floor contact
+    bool at_rest = false;  // rolling segment of a ball that has stopped (v = 0)
+    uint64_t start_us = 0;
+    bool has_prior = false;
+    uint64_t prior_us = 0;
+    float prior_mean[6] = {};
+    float prior_sigma[6] = {};
+    float v_in_z = 0;  // vertical speed into the contact (for estimating b)
+    float v_in_h = 0;  // horizontal speed into the contact
+  };
+  struct Fit {
+    bool ok = false;
+    Eigen::Matrix<float, 6, 1> x = Eigen::Matrix<float, 6, 1>::Zero();  // p, v at t_ref_us_
+    // Scaled by the residual when that exceeds the noise model.
+    Eigen::Matrix<float, 6, 6> cov = Eigen::Matrix<float, 6, 6>::Zero();
+    float chi2 = 0;
+    int rows = 0;
+    bool ambiguous = false;  // another flight explains the rays nearly as well elsewhere
+  };
 
-  void StartTrack(const BallMeasurement& m);
-  void Push(const BallMeasurement& m);
-  void KeepNewest(int n);
-  const Obs& Newest(int k) const;  // k = 0 newest
+  const Stored& Newest(int k) const;  // k = 0 newest
+  void Push(const BallObservation& obs);
+  // Fits the segment's frames up to end_us (the state at t_ref_us_).
+  Fit Solve(const Segment& seg, const Eigen::Matrix<float, 6, 1>& nominal,
+            uint64_t end_us = UINT64_MAX) const;
+  float ObsChi2(const Stored& s, const Segment& seg, const Eigen::Matrix<float, 6, 1>& x,
+                uint64_t t_ref) const;
+  void Accel(Motion m, const Eigen::Vector3f& v_ref, float tau, Eigen::Vector3f& a,
+             Eigen::Vector3f& dv) const;
+  bool PointOf(const BallObservation& obs, Eigen::Vector3f& p) const;
+  bool Plausible(const Fit& f) const;
+  Fit SolveFlight(const Segment& seg) const;
+  void StartTrack(const BallObservation& obs);
+  bool TryBounce(uint64_t t_new_us);
   void Refit();
-  void ZAt(float dt_s, float& z, float& vz, bool& rolling, int& bounces) const;
-  float RollTolerance(const Eigen::Vector3f& p) const;
+  void Evolve(float dt_s, Eigen::Vector3f& p, Eigen::Vector3f& v, BallMode& mode,
+              uint64_t* contacts, float* cx, float* cy, int max_contacts, int& n_contacts) const;
 
   BallFilterConfig cfg_;
-  Obs obs_[kMaxWindow] = {};
-  int head_ = 0, count_ = 0;  // ring buffer of the window
+  Eigen::Vector3f origin_[2] = {Eigen::Vector3f::Zero(), Eigen::Vector3f::Zero()};
+  Stored obs_[kMaxWindow] = {};
+  int head_ = 0, count_ = 0;
   bool tracking_ = false;
   bool have_time_ = false;
-  uint64_t last_t_us_ = 0;     // newest timestamp seen (ordering check)
-  uint64_t last_meas_us_ = 0;  // newest accepted measurement
-  // Horizontal model at t_ref_us_.
-  uint64_t t_ref_us_ = 0;
-  float x0_ = 0, y0_ = 0, vx_ = 0, vy_ = 0;
-  // Vertical model at t_ref_us_.
-  Vertical vert_ = Vertical::kRolling;
-  bool bounced_ = false;  // airborne after a floor contact (mode "bouncing")
-  float z0_ = 0, vz0_ = 0;
-  uint64_t seg_start_us_ = 0;  // z observations older than this belong to an earlier arc
-  bool anchor_ = false;        // floor contact (seg_start_us_, z = r) constrains the arc
-  float v_in_mps_ = 0;         // |vz| before that contact (for estimating b)
+  bool observable_ = false;
+  uint64_t last_t_us_ = 0;  // newest timestamp seen (ordering check)
+  uint64_t t_ref_us_ = 0;   // time of the estimate = newest accepted observation
+  Segment seg_;
+  Fit fit_;
+  float b_ = 0.7f, tangential_ = 0.8f;
+  int b_samples_ = 0;
   bool b_pending_ = false;
-  int lift_count_ = 0;
-  float b_ = 0.7f;
-  int large_count_ = 0;
+  int off_count_ = 0;  // consecutive observations far from the model (segment restart)
   bool cand_valid_ = false;
-  BallMeasurement cand_;
+  BallObservation cand_;  // a rejected jump, kept to see whether the next frame confirms it
 };
 
 }  // namespace bv

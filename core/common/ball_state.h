@@ -34,6 +34,7 @@ enum BallFlags : uint16_t {
   kFlagBadTimestamp = 1u << 10,       // frame time not after the previous one; measurement ignored
   kFlagHasBounce = 1u << 11,          // t_bounce_us / bounce_x_m / bounce_y_m valid
   kFlagHasPrediction = 1u << 12,      // px/py/pz valid
+  kFlagUnobservable = 1u << 13,       // one camera and too little motion: range along the ray unknown
 };
 
 struct BallState {
@@ -41,6 +42,7 @@ struct BallState {
   bool found = false;  // position valid (measured or coasting within bounds)
   float x_m = 0, y_m = 0, z_m = 0;
   float vx_mps = 0, vy_mps = 0, vz_mps = 0;
+  float sigma_x_m = 0, sigma_y_m = 0, sigma_z_m = 0;  // 1-sigma position uncertainty (found)
   BallMode mode = BallMode::kNone;
   uint16_t flags = 0;
   float ray_gap_m = -1;  // closest-approach distance of the two rays; < 0 when not triangulated
