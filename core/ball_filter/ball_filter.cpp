@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 
-#include <Eigen/Cholesky>
 #include <Eigen/Geometry>  // cross products
 
 namespace bv {
@@ -12,15 +11,16 @@ namespace {
 using Vec6 = Eigen::Matrix<float, 6, 1>;
 using Mat6 = Eigen::Matrix<float, 6, 6>;
 
-constexpr float kSigmaFloorM = 0.003f;      // metric noise floor of a ray (centroid quantisation)
-constexpr float kMinDepthM = 0.1f;          // depth along a ray used for its angular residual
-constexpr int kIterations = 3;              // Gauss-Newton steps per fit
-constexpr float kConstraintWeight = 1e6f;   // rolling: z = r, vz = 0 (1 mm, 1 mm/s)
-constexpr float kRegPos = 1e-4f;            // 100 m: keeps an unobserved direction finite
-constexpr float kRegVel = 1e-2f;            // 10 m/s
-constexpr float kMaxUpwardDirZ = 0.7f;      // rays steeper than ~44 deg up cannot see a ball
-constexpr float kRestSpeedMps = 0.02f;      // slower: at rest (no rolling deceleration)
-constexpr float kHuberSigma = 3.f;          // residuals beyond this many sigmas count linearly
+constexpr float kSigmaFloorM = 0.003f;  // metric noise floor of a ray (centroid quantisation)
+constexpr float kMinDepthM = 0.1f;      // depth along a ray used for its angular residual
+constexpr int kColdIterations = 4;      // ... from a point on a ray
+constexpr float kModelCheckChi2PerDof = 1.5f;  // a fit this much worse than the noise is checked
+constexpr float kConstraintWeight = 1e6f;      // rolling: z = r, vz = 0 (1 mm, 1 mm/s)
+constexpr float kRegPos = 1e-4f;               // 100 m: keeps an unobserved direction finite
+constexpr float kRegVel = 1e-2f;               // 10 m/s
+constexpr float kMaxUpwardDirZ = 0.7f;         // rays steeper than ~44 deg up cannot see a ball
+constexpr float kRestSpeedMps = 0.02f;         // slower: at rest (no rolling deceleration)
+constexpr float kHuberSigma = 3.f;             // residuals beyond this many sigmas count linearly
 constexpr float kStopCheckSpeedMps = 0.5f;  // a rolling fit this slow is checked for having stopped
 constexpr float kOffSigma = 3.f;  // a frame this far from the prediction may start a segment
 constexpr int kRestFrames = 4;
@@ -70,8 +70,11 @@ float RayTerms(const Eigen::Vector3f& x, const Eigen::Vector3f& d, float sigma_h
     // The angle itself (atan2): a point behind the camera, on the ray's backward extension, is
     // half a turn off, not on the ray.
     const float across = es[j]->dot(x);
-    const float res = std::atan2(across, along);
-    const float n2 = std::max(across * across + along * along, kMinDepthM * kMinDepthM);
+    // Small angles (every ray near its fit) need no arctangent: tan is within 1 % below 0.17 rad.
+    const bool small = along > 6.f * std::fabs(across);
+    const float res = small ? across / along : std::atan2(across, along);
+    const float n2 =
+        small ? along * along : std::max(across * across + along * along, kMinDepthM * kMinDepthM);
     const Eigen::Vector3f jac = (along * *es[j] - across * d) / n2;
     const float w = 1.f / (sig[j] * sig[j]);
     m += w * jac * jac.transpose();
@@ -88,6 +91,46 @@ float RayTerms(const Eigen::Vector3f& x, const Eigen::Vector3f& d, float sigma_h
     ++rows;
   }
   return chi2;
+}
+
+// Cholesky of the 6x6 normal matrix, written out: Eigen's matrix-right-hand-side solves go
+// through its blocked (heap-using) path, and this is all the filter needs. False if not positive
+// definite.
+bool Cholesky6(const Mat6& h, Mat6& l) {
+  l.setZero();
+  for (int j = 0; j < 6; ++j) {
+    float d = h(j, j);
+    for (int k = 0; k < j; ++k) d -= l(j, k) * l(j, k);
+    if (!(d > 0.f)) return false;
+    l(j, j) = std::sqrt(d);
+    for (int i = j + 1; i < 6; ++i) {
+      float v = h(i, j);
+      for (int k = 0; k < j; ++k) v -= l(i, k) * l(j, k);
+      l(i, j) = v / l(j, j);
+    }
+  }
+  return true;
+}
+
+Vec6 CholeskySolve(const Mat6& l, const Vec6& b) {
+  Vec6 y;
+  for (int i = 0; i < 6; ++i) {
+    float v = b(i);
+    for (int k = 0; k < i; ++k) v -= l(i, k) * y(k);
+    y(i) = v / l(i, i);
+  }
+  for (int i = 5; i >= 0; --i) {
+    float v = y(i);
+    for (int k = i + 1; k < 6; ++k) v -= l(k, i) * y(k);
+    y(i) = v / l(i, i);
+  }
+  return y;
+}
+
+Mat6 CholeskyInverse(const Mat6& l) {
+  Mat6 inv;
+  for (int c = 0; c < 6; ++c) inv.col(c) = CholeskySolve(l, Vec6::Unit(c));
+  return inv;
 }
 
 }  // namespace
@@ -159,7 +202,8 @@ void BallFilter::Accel(Motion m, const Eigen::Vector3f& v_ref, float tau, Eigen:
 
 // Gauss-Newton over the segment's rays (angular residuals), its prior and its constraints, from
 // the nominal state at t_ref_us_; a small damping keeps an unobserved direction where it was.
-BallFilter::Fit BallFilter::Solve(const Segment& seg, const Vec6& nominal, uint64_t end_us) const {
+BallFilter::Fit BallFilter::Solve(const Segment& seg, const Vec6& nominal, uint64_t end_us,
+                                  int iterations) const {
   Fit f;
   Vec6 x = nominal;
   const float r0 = cfg_.ball_radius_m;
@@ -172,7 +216,7 @@ BallFilter::Fit BallFilter::Solve(const Segment& seg, const Vec6& nominal, uint6
   constrain(x);
   Mat6 h;
   int rows = 0;
-  for (int it = 0; it < kIterations; ++it) {
+  for (int it = 0; it < iterations; ++it) {
     h.setZero();
     Vec6 g = Vec6::Zero();
     rows = 0;
@@ -239,16 +283,17 @@ BallFilter::Fit BallFilter::Solve(const Segment& seg, const Vec6& nominal, uint6
       h(j, j) += kRegPos;
       h(3 + j, 3 + j) += kRegVel;
     }
-    const Eigen::LDLT<Mat6> ldlt(h);
-    if (ldlt.info() != Eigen::Success) return f;
-    const Vec6 step = ldlt.solve(g);
+    Mat6 l;
+    if (!Cholesky6(h, l)) return f;
+    const Vec6 step = CholeskySolve(l, g);
     if (!step.allFinite()) return f;
     x -= step;
     constrain(x);
   }
   f.x = x;
-  const Eigen::LDLT<Mat6> ldlt(h);
-  f.cov = ldlt.solve(Mat6::Identity());
+  Mat6 l;
+  if (!Cholesky6(h, l)) return f;
+  f.cov = CholeskyInverse(l);
   if (!f.x.allFinite() || !f.cov.allFinite()) return f;
   f.rows = rows;
   for (int i = 0; i < count_; ++i) {
@@ -347,7 +392,7 @@ void BallFilter::StartTrack(const BallObservation& obs) {
   t_ref_us_ = obs.t_us;
   Vec6 nominal = Vec6::Zero();
   for (int j = 0; j < 3; ++j) nominal(j) = p0(j);
-  fit_ = Solve(seg_, nominal);
+  fit_ = Solve(seg_, nominal, UINT64_MAX, kColdIterations);
   if (!fit_.ok) tracking_ = false;
 }
 
@@ -356,12 +401,12 @@ void BallFilter::StartTrack(const BallObservation& obs) {
 // fit wins.
 BallFilter::Fit BallFilter::SolveFlight(const Segment& seg) const {
   Fit fits[3];
-  fits[0] = Solve(seg, fit_.x);
+  fits[0] = Solve(seg, fit_.x, UINT64_MAX, kColdIterations);
   const Stored& nw = Newest(0);
   for (int i = 1; i < 3; ++i) {
     Vec6 start = Vec6::Zero();
     start.head<3>() = origin_[nw.rays[0].camera] + nw.rays[0].dir * (i == 1 ? 2.f : 5.f);
-    fits[i] = Solve(seg, start);
+    fits[i] = Solve(seg, start, UINT64_MAX, kColdIterations);
   }
   int best = 0;
   for (int i = 1; i < 3; ++i) {
@@ -595,9 +640,16 @@ uint16_t BallFilter::Update(const BallObservation& in) {
   for (int i = 0; i < count_ && Newest(i).t_us >= seg_.start_us; ++i) ++seg_frames;
   off_count_ = off > kOffSigma ? off_count_ + 1 : 0;
   bool switched = false;
-  if (seg_frames >= 2) {
-    // Rolling vs flying over the same frames: a ball that left the floor (or a flight that turns
-    // out to hug it). Flying needs a clear gain, and to be above the floor now.
+  // Rolling vs flying over the same frames: a ball that left the floor (or a flight that turns
+  // out to hug it). Checked only when the current model fits worse than the ray noise, or when a
+  // flight is near the floor and slow (cheap tests first: each fit is a few hundred rays).
+  const int dof = fit_.rows - (seg_.motion == Motion::kAir ? 6 : 4);
+  const bool poor_fit = fit_.chi2 > kModelCheckChi2PerDof * static_cast<float>(std::max(dof, 1));
+  const bool low_flight = seg_.motion == Motion::kAir && fit_.x(2) < r + cfg_.roll_tolerance_m &&
+                          std::fabs(fit_.x(5)) < cfg_.min_bounce_vz_mps;
+  // One camera's rays of a rising ball can fit the floor model well: checked every frame.
+  const bool one_camera = Newest(0).n == 1;
+  if (seg_frames >= 2 && (seg_.motion == Motion::kRolling ? poor_fit || one_camera : low_flight)) {
     Segment other = seg_;
     other.motion = seg_.motion == Motion::kRolling ? Motion::kAir : Motion::kRolling;
     other.at_rest = false;

@@ -135,7 +135,7 @@ class BallFilter {
   void Push(const BallObservation& obs);
   // Fits the segment's frames up to end_us (the state at t_ref_us_).
   Fit Solve(const Segment& seg, const Eigen::Matrix<float, 6, 1>& nominal,
-            uint64_t end_us = UINT64_MAX) const;
+            uint64_t end_us = UINT64_MAX, int iterations = 3) const;
   float ObsChi2(const Stored& s, const Segment& seg, const Eigen::Matrix<float, 6, 1>& x,
                 uint64_t t_ref) const;
   void Accel(Motion m, const Eigen::Vector3f& v_ref, float tau, Eigen::Vector3f& a,
