@@ -49,9 +49,9 @@ Errors RunOnce(const LinkModel& m, double drift_ppm, uint32_t seed, double rate_
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> u01(0.0, 1.0);
   std::exponential_distribution<double> sched(1.0 / m.sched_mean_us);
-  const double rate = 1.0 + drift_ppm * 1e-6;        // device µs per true µs
-  double dev0 = 3e6 + u01(rng) * 1e9;                // device clock at true time 0
-  const double host0 = 1.7e15 + u01(rng) * 1e12;     // host clock (true time) at 0
+  const double rate = 1.0 + drift_ppm * 1e-6;     // device µs per true µs
+  double dev0 = 3e6 + u01(rng) * 1e9;             // device clock at true time 0
+  const double host0 = 1.7e15 + u01(rng) * 1e12;  // host clock (true time) at 0
   auto dev = [&](double t) { return dev0 + t * rate; };
   ClockSync sync;
   Errors e{};
@@ -69,8 +69,8 @@ Errors RunOnce(const LinkModel& m, double drift_ppm, uint32_t seed, double rate_
     while (next_check < 3 && t >= kCheckpoints[next_check] * 1e6) {
       // Error of host time assigned to a packet stamped now, and of the drift.
       const double now_dev = dev(t);
-      const double host_est = static_cast<double>(sync.ToHostTime(static_cast<uint64_t>(now_dev)))
-                              + (now_dev - std::floor(now_dev));
+      const double host_est = static_cast<double>(sync.ToHostTime(static_cast<uint64_t>(now_dev))) +
+                              (now_dev - std::floor(now_dev));
       e.offset_us[next_check] = sync.valid() ? host_est - (host0 + t) : NAN;
       const double true_ppm = (1.0 / rate - 1.0) * 1e6;
       e.drift_ppm[next_check] = sync.DriftPpm() - true_ppm;
@@ -124,17 +124,18 @@ int main(int argc, char** argv) {
       {"USB adapter (1 ms latency timer), busy host", 150, 125, 150, 1000, 80, 0.02, 5000, 0.14,
        4600, -1},
       {"USB adapter, capture running", 150, 125, 150, 1000, 80, 0.02, 5000, 0.95, 11700, -1},
-      {"  same, t3 stamped before the queue", 150, 125, 150, 1000, 80, 0.02, 5000, 0.95, 11700,
-       -1, true},
+      {"  same, t3 stamped before the queue", 150, 125, 150, 1000, 80, 0.02, 5000, 0.95, 11700, -1,
+       true},
       {"USB adapter, coprocessor reset at 30 s", 150, 125, 150, 1000, 80, 0.02, 5000, 0.14, 4600,
        30},
-      {"USB adapter, asymmetric base (in +200 us)", 150, 125, 350, 1000, 80, 0.02, 5000, 0.14,
-       4600, -1},
+      {"USB adapter, asymmetric base (in +200 us)", 150, 125, 350, 1000, 80, 0.02, 5000, 0.14, 4600,
+       -1},
   };
   const double drifts[] = {40.0, -73.0};
-  std::printf("clock sync, 921600 Bd, %.0f exchanges/s, %d runs per row (random offsets, "
-              "seeds 1..%d); |error| median / p95\n",
-              rate_hz, runs, runs);
+  std::printf(
+      "clock sync, 921600 Bd, %.0f exchanges/s, %d runs per row (random offsets, "
+      "seeds 1..%d); |error| median / p95\n",
+      rate_hz, runs, runs);
   std::printf("%-46s %6s  %-22s %-22s %-22s %-20s %-20s %-20s %s\n", "link", "drift",
               "offset 1 s (us)", "offset 10 s (us)", "offset 60 s (us)", "drift 1 s (ppm)",
               "drift 10 s (ppm)", "drift 60 s (ppm)", "restarts");

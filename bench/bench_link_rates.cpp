@@ -11,14 +11,14 @@
 #include <vector>
 
 #include "core/protocol/link.h"
-#include "firmware/main_loop.h"
 #include "firmware/main_loop.cpp"  // NOLINT(build/include)
+#include "firmware/main_loop.h"
 #include "host_tests/link_sim.h"
 
 namespace {
 
-using namespace bv;            // NOLINT(build/namespaces)
-using namespace bv::fw::sim;   // NOLINT(build/namespaces)
+using namespace bv;           // NOLINT(build/namespaces)
+using namespace bv::fw::sim;  // NOLINT(build/namespaces)
 namespace protocol = bv::protocol;
 
 struct Figures {
@@ -68,7 +68,8 @@ Figures Run(bool capture, protocol::CaptureMode mode, uint16_t count, uint32_t p
       if (protocol::ParseCaptureEnd(v.payload, e).ok()) f.pairs_captured = e.pairs_sent;
     } else if (v.type == protocol::MsgType::kBallState) {
       BallState s;
-      if (protocol::ParseBallState(v.payload, s).ok()) balls.emplace_back(s.t_us, uart.wire_done_us[i]);
+      if (protocol::ParseBallState(v.payload, s).ok())
+        balls.emplace_back(s.t_us, uart.wire_done_us[i]);
     }
   }
   const uint64_t w0 = capture ? first_chunk : 1000;
@@ -90,11 +91,11 @@ Figures Run(bool capture, protocol::CaptureMode mode, uint16_t count, uint32_t p
 }  // namespace
 
 int main() {
-  std::printf("921600 Bd (92160 B/s), 30 Hz pairs, 2 KB TX ring, chunks of %zu image bytes "
-              "(%zu on the wire)\n",
-              protocol::kCaptureChunkBytes,
-              protocol::WireFrameBytes(protocol::kCaptureChunkHeaderBytes +
-                                       protocol::kCaptureChunkBytes));
+  std::printf(
+      "921600 Bd (92160 B/s), 30 Hz pairs, 2 KB TX ring, chunks of %zu image bytes "
+      "(%zu on the wire)\n",
+      protocol::kCaptureChunkBytes,
+      protocol::WireFrameBytes(protocol::kCaptureChunkHeaderBytes + protocol::kCaptureChunkBytes));
   std::printf("%-34s %12s %10s %14s %12s %16s %s\n", "run", "capture B/s", "link %",
               "capture time s", "ball pkt/s", "worst ball ms", "pairs (balls/served)");
   const Figures base = Run(false, protocol::CaptureMode::kFull, 0, 300);

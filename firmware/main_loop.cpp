@@ -344,7 +344,8 @@ void MainLoop::PumpCapture() {
   const size_t chunk_wire =
       protocol::WireFrameBytes(protocol::kCaptureChunkHeaderBytes + protocol::kCaptureChunkBytes);
   if (c.end_pending) {
-    if (uart_.WriteSpace() < protocol::WireFrameBytes(protocol::kCaptureEndBytes) + kTxReserveBytes) {
+    if (uart_.WriteSpace() <
+        protocol::WireFrameBytes(protocol::kCaptureEndBytes) + kTxReserveBytes) {
       return;
     }
     if (SendCapturePacket(protocol::EncodeCaptureEnd(c.end, seq_, packet_), kTxReserveBytes)) {
@@ -361,7 +362,8 @@ void MainLoop::PumpCapture() {
   for (uint32_t i = 0; i < config_.capture_chunks_per_poll; ++i) {
     const size_t space = uart_.WriteSpace();
     const size_t queued = tx_capacity_ > space ? tx_capacity_ - space : 0;
-    if (space < chunk_wire + kCaptureReserveBytes || queued + chunk_wire > kCaptureQueueLimitBytes) {
+    if (space < chunk_wire + kCaptureReserveBytes ||
+        queued + chunk_wire > kCaptureQueueLimitBytes) {
       return;  // before encoding: no sequence number is spent on a packet that waits
     }
     if (!c.header_sent) {
@@ -378,7 +380,8 @@ void MainLoop::PumpCapture() {
       f.omni_sequence = c.pair.omni.sequence;
       f.persp_sequence = c.pair.persp.sequence;
       f.image_bytes = c.image_bytes;
-      if (!SendCapturePacket(protocol::EncodeCaptureFrame(f, seq_, packet_), kCaptureReserveBytes)) {
+      if (!SendCapturePacket(protocol::EncodeCaptureFrame(f, seq_, packet_),
+                             kCaptureReserveBytes)) {
         return;
       }
       ++seq_;
@@ -389,7 +392,8 @@ void MainLoop::PumpCapture() {
     const size_t stride =
         frame.stride_bytes != 0 ? frame.stride_bytes : kFrameWidth * kYuyvBytesPerPixel;
     uint8_t data[protocol::kCaptureChunkBytes];
-    const size_t n = c.image_bytes - c.offset < sizeof(data) ? c.image_bytes - c.offset : sizeof(data);
+    const size_t n =
+        c.image_bytes - c.offset < sizeof(data) ? c.image_bytes - c.offset : sizeof(data);
     if (!protocol::CopyCaptureBytes(frame.data, stride, c.mode, c.offset,
                                     std::span<uint8_t>(data, n))) {
       ++status_.pipeline_errors;
@@ -402,7 +406,8 @@ void MainLoop::PumpCapture() {
     chunk.camera = c.camera;
     chunk.offset = c.offset;
     chunk.data = std::span<const uint8_t>(data, n);
-    if (!SendCapturePacket(protocol::EncodeCaptureChunk(chunk, seq_, packet_), kCaptureReserveBytes)) {
+    if (!SendCapturePacket(protocol::EncodeCaptureChunk(chunk, seq_, packet_),
+                           kCaptureReserveBytes)) {
       return;
     }
     ++seq_;

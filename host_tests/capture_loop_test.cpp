@@ -174,7 +174,7 @@ TEST_F(CaptureLoopTest, RefusesASecondCaptureAndStopsOnCommand) {
   Start(150);
   Capture(5, protocol::CaptureMode::kHalf, protocol::kCaptureOmni);  // ~1.8 s a pair
   RunUntil(1000 + 5 * kPeriodUs);
-  Capture(1, protocol::CaptureMode::kFull);  // while the first runs
+  Capture(1, protocol::CaptureMode::kFull);    // while the first runs
   Capture(500, protocol::CaptureMode::kFull);  // absurd
   RunUntil(1000 + 90 * kPeriodUs);
   Command(protocol::MsgType::kCaptureStop, {});
@@ -215,8 +215,8 @@ TEST_F(CaptureLoopTest, CameraThatEndsCutsTheCaptureShortAndSaysSo) {
   Drain();
   const Received r = DecodeWire(uart_);
   ASSERT_EQ(r.pairs.size(), 1u);
-  EXPECT_EQ(r.pairs[0].image[1], Expected(r.pairs[0].frame.persp_sequence, 1,
-                                          protocol::CaptureMode::kFull));
+  EXPECT_EQ(r.pairs[0].image[1],
+            Expected(r.pairs[0].frame.persp_sequence, 1, protocol::CaptureMode::kFull));
   ASSERT_EQ(r.ends.size(), 1u);
   EXPECT_EQ(r.ends[0].reason, protocol::CaptureEndReason::kCameraFinished);
   EXPECT_EQ(r.ends[0].pairs_sent, 1);
@@ -259,8 +259,8 @@ TEST_F(CaptureLoopTest, ClockSyncReplyCarriesTheArrivalStampAndEchoesTheRequest)
   w.U32(5), w.U64(1700000000000042ull);
   clock_.now = 50000;
   Command(protocol::MsgType::kClockSync, p);  // stamped at 50000 by the "interrupt"
-  clock_.now = 50800;  // the loop gets to it 0.8 ms later
-  uart_.Advance(clock_.now);  // the boot status has left: the ring is empty
+  clock_.now = 50800;                         // the loop gets to it 0.8 ms later
+  uart_.Advance(clock_.now);                  // the boot status has left: the ring is empty
   loop_->Poll();
   uart_.Advance(clock_.now + 100000);
   const Received r = DecodeWire(uart_);

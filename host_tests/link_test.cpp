@@ -246,8 +246,8 @@ struct SimLink {
   double byte_us = 10.0 / 921600.0 * 1e6;
   double dev(double t) const { return dev0 + t * (1.0 + ppm * 1e-6); }
   // out / back: latencies beyond the wire time; hold: reply queued at the coprocessor.
-  ClockSyncReply Exchange(ClockSync& s, uint32_t id, double t, double out, double back,
-                          double hold, int64_t& t4) const {
+  ClockSyncReply Exchange(ClockSync& s, uint32_t id, double t, double out, double back, double hold,
+                          int64_t& t4) const {
     const double req = byte_us * protocol::WireFrameBytes(protocol::kClockSyncRequestBytes);
     const double rep = byte_us * protocol::WireFrameBytes(protocol::kClockSyncReplyBytes);
     const int64_t t1 = host0 + static_cast<int64_t>(t);

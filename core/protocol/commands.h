@@ -42,9 +42,11 @@ enum class CommandError : uint8_t {
   kUnknownParam = 9,
   kBadValue = 10,       // NaN or out of the parameter's range
   kIncomplete = 11,     // commit before all bytes arrived
-  kBusy = 12,           // a capture is already running
-  kUnsupported = 13,    // the board cannot do this (e.g. capture without a spare frame slot)
-  kNotRunning = 14,     // capture stop without a capture
+
+  // Capture over the link.
+  kBusy = 12,         // a capture is already running
+  kUnsupported = 13,  // the board cannot do this (capture without a spare frame slot)
+  kNotRunning = 14,   // capture stop without a capture
 };
 
 /// Where uploads go: the firmware implements it over the A/B blob store, tests with RAM.

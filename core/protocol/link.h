@@ -54,9 +54,9 @@ enum class CaptureMode : uint8_t {
 };
 enum CaptureCameras : uint8_t { kCaptureOmni = 1, kCapturePersp = 2 };
 enum class CaptureEndReason : uint8_t {
-  kComplete = 0,       // all requested pairs sent
-  kStopped = 1,        // capture stop command
-  kCameraFinished = 2, // the camera has no more frames (replay ended)
+  kComplete = 0,        // all requested pairs sent
+  kStopped = 1,         // capture stop command
+  kCameraFinished = 2,  // the camera has no more frames (replay ended)
 };
 
 /// Pairs one request may ask for: at full resolution a pair is ~14 s of link time at

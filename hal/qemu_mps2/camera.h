@@ -76,7 +76,7 @@ class SemihostingCamera : public hal::Camera {
   int csv_fd_ = -1;
   LineReader reader_;
   uint32_t held_mask_[hal::kCameraCount] = {};  // slots handed out and not yet released
-  uint32_t max_pairs_ = 0;  // 0: all rows
+  uint32_t max_pairs_ = 0;                      // 0: all rows
   uint32_t pairs_served_ = 0;
   uint32_t bad_rows_ = 0;
   uint32_t bad_frames_ = 0;

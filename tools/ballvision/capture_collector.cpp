@@ -28,9 +28,9 @@ CaptureCollector::Event CaptureCollector::Feed(const protocol::FrameView& frame,
       }
       Event e = Event::kNone;
       if (in_pair_) {
-        Break("the next pair started after " + std::to_string(received_[0] + received_[1]) +
-                  " bytes",
-              message);
+        Break(
+            "the next pair started after " + std::to_string(received_[0] + received_[1]) + " bytes",
+            message);
         e = Event::kBadPacket;
       }
       if (!seen_any_) first_ = f;
@@ -98,9 +98,8 @@ CaptureCollector::Event CaptureCollector::Feed(const protocol::FrameView& frame,
 
 bool CaptureCollector::Finish(std::string& message) {
   if (!in_pair_) return false;
-  return Break("the stream ended after " + std::to_string(received_[0] + received_[1]) +
-                   " of " + std::to_string(pair_.image[0].size() + pair_.image[1].size()) +
-                   " bytes",
+  return Break("the stream ended after " + std::to_string(received_[0] + received_[1]) + " of " +
+                   std::to_string(pair_.image[0].size() + pair_.image[1].size()) + " bytes",
                message);
 }
 

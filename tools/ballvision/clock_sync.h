@@ -106,10 +106,10 @@ class ClockSync {
   Sample ring_[kWindow] = {};
   size_t head_ = 0;
   size_t count_ = 0;
-  uint64_t dev_ref_ = 0;     // device time origin of the current estimate
-  int64_t offset_ref_ = 0;   // whole µs taken out of every sample's offset
-  double last_t_dev_ = 0;  // newest sample, relative to dev_ref_
-  double intercept_ = 0;   // offset at dev_ref_
+  uint64_t dev_ref_ = 0;    // device time origin of the current estimate
+  int64_t offset_ref_ = 0;  // whole µs taken out of every sample's offset
+  double last_t_dev_ = 0;   // newest sample, relative to dev_ref_
+  double intercept_ = 0;    // offset at dev_ref_
   double slope_ = 0;
   double min_delay_ = 0;
   double centroid_ = 0;  // weighted mean device time of the fit

@@ -188,7 +188,8 @@ int CmdCapture(int argc, char** argv) {
       } else if (v == "quarter") {
         mode = protocol::CaptureMode::kQuarter;
       } else {
-        std::fprintf(stderr, "ballvision capture: --mode: got '%s', expected full, half or quarter\n",
+        std::fprintf(stderr,
+                     "ballvision capture: --mode: got '%s', expected full, half or quarter\n",
                      v.c_str());
         return 2;
       }
@@ -200,7 +201,8 @@ int CmdCapture(int argc, char** argv) {
       } else if (v == "persp") {
         cameras = protocol::kCapturePersp;
       } else {
-        std::fprintf(stderr, "ballvision capture: --cameras: got '%s', expected both, omni or persp\n",
+        std::fprintf(stderr,
+                     "ballvision capture: --cameras: got '%s', expected both, omni or persp\n",
                      v.c_str());
         return 2;
       }
@@ -232,8 +234,10 @@ int CmdCapture(int argc, char** argv) {
     }
     const std::string csv = out_dir + "/frames.csv";
     if (access(csv.c_str(), F_OK) == 0) {
-      std::fprintf(stderr, "ballvision capture: %s already holds a sequence (frames.csv); "
-                   "choose a new directory\n", out_dir.c_str());
+      std::fprintf(stderr,
+                   "ballvision capture: %s already holds a sequence (frames.csv); "
+                   "choose a new directory\n",
+                   out_dir.c_str());
       return 1;
     }
   } else if (mkdir(out_dir.c_str(), 0777) != 0) {
@@ -250,12 +254,11 @@ int CmdCapture(int argc, char** argv) {
   }
   InstallInterruptHandlers();
   if (writable) {
-    uint8_t p[protocol::kCaptureStartBytes] = {
-        static_cast<uint8_t>(pairs & 0xFF), static_cast<uint8_t>(pairs >> 8),
-        static_cast<uint8_t>(mode), cameras};
+    uint8_t p[protocol::kCaptureStartBytes] = {static_cast<uint8_t>(pairs & 0xFF),
+                                               static_cast<uint8_t>(pairs >> 8),
+                                               static_cast<uint8_t>(mode), cameras};
     uint8_t wire[64];
-    const Result<size_t> n =
-        protocol::EncodeFrame(protocol::MsgType::kCaptureStart, 1, p, wire);
+    const Result<size_t> n = protocol::EncodeFrame(protocol::MsgType::kCaptureStart, 1, p, wire);
     if (!n.ok() || write(fd, wire, *n) != static_cast<ssize_t>(*n)) {
       std::fprintf(stderr, "ballvision capture: cannot send the request to %s: %s\n",
                    source.c_str(), std::strerror(errno));
@@ -283,8 +286,8 @@ int CmdCapture(int argc, char** argv) {
   bool done = false;
   while (!done && !write_failed) {
     if (InterruptSignal()) break;
-    if (seconds > 0 && std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
-                               .count() > seconds) {
+    if (seconds > 0 &&
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() > seconds) {
       break;
     }
     const ssize_t n = read(fd, buf, sizeof buf);
@@ -301,9 +304,21 @@ int CmdCapture(int argc, char** argv) {
       if (!decoder.Push(buf[i], frame)) continue;
       if (frame.type == protocol::MsgType::kError && frame.payload.size() == 10 &&
           frame.payload[0] == static_cast<uint8_t>(protocol::MsgType::kCaptureStart)) {
-        static const char* kWhy[] = {"", "unknown command", "bad length", "", "", "", "", "",
-                                     "", "", "bad value", "", "busy: a capture is running",
-                                     "this board cannot capture", ""};
+        static const char* kWhy[] = {"",
+                                     "unknown command",
+                                     "bad length",
+                                     "",
+                                     "",
+                                     "",
+                                     "",
+                                     "",
+                                     "",
+                                     "",
+                                     "bad value",
+                                     "",
+                                     "busy: a capture is running",
+                                     "this board cannot capture",
+                                     ""};
         const uint8_t code = frame.payload[5];
         refusal = code < 15 ? kWhy[code] : "error";
         std::fprintf(stderr, "ballvision capture: the coprocessor refused the request: %s\n",
@@ -322,8 +337,8 @@ int CmdCapture(int argc, char** argv) {
       for (int c = 0; c < 2 && !write_failed; ++c) {
         if (pair.image[c].empty()) continue;
         names[c] = std::string(c ? "persp_" : "omni_") + std::to_string(f.pair_index) + ".yuyv";
-        if (!WriteFileAtomic(out_dir + "/" + names[c], tools::UpsampleCapture(pair.image[c], f.mode),
-                             err)) {
+        if (!WriteFileAtomic(out_dir + "/" + names[c],
+                             tools::UpsampleCapture(pair.image[c], f.mode), err)) {
           std::fprintf(stderr, "ballvision capture: %s\n", err.c_str());
           write_failed = true;
         }
@@ -379,16 +394,20 @@ int CmdCapture(int argc, char** argv) {
   bool ok = !write_failed;
   ok = WriteFileAtomic(out_dir + "/capture.csv",
                        "index,t_us,omni_exposure_us,persp_exposure_us,omni_sequence,"
-                       "persp_sequence\n" + capture_rows,
-                       err) && ok;
+                       "persp_sequence\n" +
+                           capture_rows,
+                       err) &&
+       ok;
   ok = WriteFileAtomic(out_dir + "/capture.json", json, err) && ok;
   ok = WriteFileAtomic(out_dir + "/frames.csv", "index,t_us,omni_file,persp_file\n" + frames_rows,
-                       err) && ok;
+                       err) &&
+       ok;
   if (!ok) std::fprintf(stderr, "ballvision capture: %s\n", err.c_str());
-  std::printf("summary: pairs_written=%u of %u, broken=%u, bad_packets=%u, decoder_errors=%u, "
-              "%s%s\n",
-              written, requested, collector.pairs_broken(), bad, decoder.stats().errors(),
-              complete ? "complete" : "INCOMPLETE: ", note.c_str());
+  std::printf(
+      "summary: pairs_written=%u of %u, broken=%u, bad_packets=%u, decoder_errors=%u, "
+      "%s%s\n",
+      written, requested, collector.pairs_broken(), bad, decoder.stats().errors(),
+      complete ? "complete" : "INCOMPLETE: ", note.c_str());
   if (InterruptSignal()) return InterruptExitCode();
   return ok && complete ? 0 : 1;
 }
