@@ -29,12 +29,12 @@ rm -f "$work/uart.in" "$work/uart.out"
 mkfifo "$work/uart.in" "$work/uart.out" || fail "mkfifo"
 cat "$work/uart.out" > "$work/uart.bin" & reader=$!
 cat "$work/commands.bin" > "$work/uart.in" & writer=$!
-# capture_chunks=2400: QEMU's UART takes bytes instantly, so a whole pair is streamed in one
+# capture_chunks=4000: QEMU's UART takes bytes instantly, so a whole pair is streamed in one
 # loop iteration and the capture holds consecutive pairs (on the board the 921600 Bd line sets
 # the pace).
 "$qemu" -machine mps2-an500 -display none -monitor none -icount shift=0 \
   -chardev "pipe,id=u0,path=$work/uart" -serial chardev:u0 \
-  -semihosting-config "enable=on,target=native,arg=seq=$work/seq,arg=cal=$work/calib.bin,arg=lut=$lut,arg=rx_bytes=$(stat -c %s "$work/commands.bin"),arg=capture_chunks=2400" \
+  -semihosting-config "enable=on,target=native,arg=seq=$work/seq,arg=cal=$work/calib.bin,arg=lut=$lut,arg=rx_bytes=$(stat -c %s "$work/commands.bin"),arg=capture_chunks=4000" \
   -kernel "$elf" < /dev/null 2> "$work/qemu.err"
 rc=$?
 kill "$writer" 2> /dev/null

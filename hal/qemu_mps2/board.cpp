@@ -7,7 +7,7 @@
 //   period_us=N    frame period for the deadline accounting (default 33333)
 //   rx_bytes=N     test aid: the replay ends only after N bytes arrived on UART0
 //   capture_chunks=N  capture chunks queued per loop iteration at most (default 4); with
-//                  QEMU's instantaneous UART, 2400 streams a whole full-size pair per
+//                  QEMU's instantaneous UART, 4000 streams a whole full-size pair (2400 chunks) per
 //                  iteration, so a capture takes consecutive pairs (replay test)
 //   selftest=fault executes an undefined instruction (tests the fault handler)
 //   inject=KIND@N[,KIND@N...]  fault injection keyed on the pair index N (from 0), for faults a

@@ -26,14 +26,17 @@
 namespace bv::cli {
 namespace {
 
+constexpr uint32_t kRequestSeq = 1;  // sequence number of our capture request
+
 int CaptureUsage() {
   std::fprintf(
       stderr,
       "usage: ballvision capture SOURCE --out SEQ_DIR [--pairs N] [--mode full|half|quarter]\n"
       "                          [--cameras both|omni|persp] [--baud N] [--seconds S]\n"
       "  Asks the coprocessor for the next N frame pairs (1..100, default 1: a snapshot) and\n"
-      "  writes SEQ_DIR/frames.csv, one .yuyv per image, capture.csv (per-camera exposure\n"
-      "  times and frame counters) and capture.json (mode, complete or not and why).\n"
+      "  writes SEQ_DIR/frames.csv (index = the device's frame counter), one .yuyv per\n"
+      "  image, capture.csv (pair index, per-camera exposure times and frame counters) and\n"
+      "  capture.json (mode, complete or not and why).\n"
       "  Half and quarter images are scaled back to 640x480 (nearest) so `run` replays them.\n"
       "  SOURCE: a serial device or pty, tcp:HOST:PORT, or a file / '-' holding a recorded\n"
       "  stream (decoded only, no request sent). Exit 1 when the capture is incomplete (the\n"
@@ -258,7 +261,8 @@ int CmdCapture(int argc, char** argv) {
                                                static_cast<uint8_t>(pairs >> 8),
                                                static_cast<uint8_t>(mode), cameras};
     uint8_t wire[64];
-    const Result<size_t> n = protocol::EncodeFrame(protocol::MsgType::kCaptureStart, 1, p, wire);
+    const Result<size_t> n =
+        protocol::EncodeFrame(protocol::MsgType::kCaptureStart, kRequestSeq, p, wire);
     if (!n.ok() || write(fd, wire, *n) != static_cast<ssize_t>(*n)) {
       std::fprintf(stderr, "ballvision capture: cannot send the request to %s: %s\n",
                    source.c_str(), std::strerror(errno));
@@ -320,11 +324,20 @@ int CmdCapture(int argc, char** argv) {
                                      "this board cannot capture",
                                      ""};
         const uint8_t code = frame.payload[5];
-        refusal = code < 15 ? kWhy[code] : "error";
-        std::fprintf(stderr, "ballvision capture: the coprocessor refused the request: %s\n",
-                     refusal.c_str());
-        done = true;
-        break;
+        const uint32_t cmd_seq = frame.payload[1] | (frame.payload[2] << 8) |
+                                 (frame.payload[3] << 16) | (uint32_t{frame.payload[4]} << 24);
+        const std::string why = code < 15 ? kWhy[code] : "error";
+        if (writable && cmd_seq == kRequestSeq) {  // ours: nothing will come
+          refusal = why;
+          std::fprintf(stderr, "ballvision capture: the coprocessor refused the request: %s\n",
+                       why.c_str());
+          done = true;
+          break;
+        }
+        // In a recording: another request was refused; the capture may still be in it.
+        std::fprintf(stderr, "ballvision capture: note: capture request seq %u refused: %s\n",
+                     cmd_seq, why.c_str());
+        continue;
       }
       const auto ev = collector.Feed(frame, message);
       if (!message.empty()) std::fprintf(stderr, "ballvision capture: %s\n", message.c_str());
@@ -333,10 +346,13 @@ int CmdCapture(int argc, char** argv) {
       if (ev != tools::CaptureCollector::Event::kPairComplete) continue;
       const tools::CapturedPair& pair = collector.pair();
       const protocol::CaptureFrame& f = pair.frame;
+      // The device's frame counter as the index (the original sequence's index on a replay):
+      // the captured sequence lines up with the frames it came from.
+      const uint32_t index = pair.image[0].empty() ? f.persp_sequence : f.omni_sequence;
       std::string names[2];
       for (int c = 0; c < 2 && !write_failed; ++c) {
         if (pair.image[c].empty()) continue;
-        names[c] = std::string(c ? "persp_" : "omni_") + std::to_string(f.pair_index) + ".yuyv";
+        names[c] = std::string(c ? "persp_" : "omni_") + std::to_string(index) + ".yuyv";
         if (!WriteFileAtomic(out_dir + "/" + names[c],
                              tools::UpsampleCapture(pair.image[c], f.mode), err)) {
           std::fprintf(stderr, "ballvision capture: %s\n", err.c_str());
@@ -344,15 +360,16 @@ int CmdCapture(int argc, char** argv) {
         }
       }
       if (write_failed) break;
-      frames_rows += std::to_string(f.pair_index) + "," + std::to_string(f.exposure_us) + "," +
-                     names[0] + "," + names[1] + "\n";
-      capture_rows += std::to_string(f.pair_index) + "," + std::to_string(f.exposure_us) + "," +
+      frames_rows += std::to_string(index) + "," + std::to_string(f.exposure_us) + "," + names[0] +
+                     "," + names[1] + "\n";
+      capture_rows += std::to_string(index) + "," + std::to_string(f.pair_index) + "," +
+                      std::to_string(f.exposure_us) + "," +
                       (names[0].empty() ? "" : std::to_string(f.omni_exposure_us)) + "," +
                       (names[1].empty() ? "" : std::to_string(f.persp_exposure_us)) + "," +
                       (names[0].empty() ? "" : std::to_string(f.omni_sequence)) + "," +
                       (names[1].empty() ? "" : std::to_string(f.persp_sequence)) + "\n";
       ++written;
-      std::printf("pair %u: t %.6f s, %s%s\n", f.pair_index, f.exposure_us * 1e-6,
+      std::printf("pair %u (frame %u): t %.6f s, %s%s\n", f.pair_index, index, f.exposure_us * 1e-6,
                   names[0].empty() ? "" : "omni ", names[1].empty() ? "" : "persp");
       std::fflush(stdout);
     }
@@ -393,8 +410,8 @@ int CmdCapture(int argc, char** argv) {
   json += "  \"note\": " + JsonString(note) + "\n}\n";
   bool ok = !write_failed;
   ok = WriteFileAtomic(out_dir + "/capture.csv",
-                       "index,t_us,omni_exposure_us,persp_exposure_us,omni_sequence,"
-                       "persp_sequence\n" +
+                       "index,pair_index,t_us,omni_exposure_us,persp_exposure_us,"
+                       "omni_sequence,persp_sequence\n" +
                            capture_rows,
                        err) &&
        ok;
