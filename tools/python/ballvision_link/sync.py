@@ -42,7 +42,7 @@ class _Link:
         except socket.timeout:
             return b""
         if not data:
-            raise SystemExit("ballvision_link.sync: the coprocessor closed the connection")
+            raise EOFError("the coprocessor closed the connection")
         return data
 
 
@@ -71,18 +71,24 @@ def main(argv=None) -> int:
                     sync.reply(msg, now_us())
             if time.monotonic() - last_print >= 1.0:
                 last_print = time.monotonic()
-                if sync.valid:
-                    c = sync.counts
-                    print(f"offset {sync.offset_us(0) / 1e6:.6f} s at t=0, drift "
-                          f"{sync.drift_ppm:+.2f} ppm, min delay {sync.min_delay_us:.0f} us, "
-                          f"accepted {c['accepted']} held {c['held']} restarts {c['restarted']} "
-                          f"duplicates {c['duplicate']} refused "
-                          f"{c['unknown id'] + c['mismatch'] + c['inconsistent']}", flush=True)
-                else:
-                    print("no reply yet", flush=True)
+                _report(sync, rid, "")
     except KeyboardInterrupt:
         pass
+    except EOFError as e:
+        print(f"ballvision_link.sync: {e}", file=sys.stderr)
+    _report(sync, rid, "final: ")
     return 0 if sync.valid else 1
+
+
+def _report(sync: ClockSync, sent: int, prefix: str) -> None:
+    if not sync.valid:
+        print(f"{prefix}sent {sent}, no reply yet", flush=True)
+        return
+    c = sync.counts
+    print(f"{prefix}sent {sent}, offset {sync.offset_us(0) / 1e6:.6f} s at t=0, drift {sync.drift_ppm:+.2f} "
+          f"ppm, min delay {sync.min_delay_us:.0f} us, accepted {c['accepted']} held "
+          f"{c['held']} restarts {c['restarted']} duplicates {c['duplicate']} refused "
+          f"{c['unknown id'] + c['mismatch'] + c['inconsistent']}", flush=True)
 
 
 if __name__ == "__main__":
