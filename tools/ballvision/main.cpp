@@ -27,6 +27,7 @@ constexpr Command kCommands[] = {
     {"listen", bv::cli::CmdListen, "decode a serial stream (device, pty, file, tcp:HOST:PORT)"},
     {"seq", bv::cli::CmdSeq, "info | to-raw: inspect or convert a captured sequence"},
     {"capture", bv::cli::CmdCapture, "SOURCE --out SEQ: frame pairs from the coprocessor"},
+    {"sync", bv::cli::CmdSync, "SOURCE: clock offset and drift of the coprocessor"},
 };
 
 void Usage(FILE* out) {
