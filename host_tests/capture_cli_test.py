@@ -3,14 +3,16 @@
 capture scaled back to 640x480, a lost chunk (that pair dropped, the others kept, exit 1),
 and refused options.   capture_cli_test.py BALLVISION"""
 import os
+import socket
 import struct
 import subprocess
 import sys
 import tempfile
+import threading
 import unittest
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "tools", "python"))
-from ballvision_link.protocol import encode_frame  # noqa: E402
+from ballvision_link.protocol import Decoder, encode_frame  # noqa: E402
 
 BV = sys.argv.pop(1) if len(sys.argv) > 1 else "build/host/tools/ballvision"
 W, H = 160, 120  # quarter
@@ -43,6 +45,31 @@ def stream(pairs, drop_chunk=None, end=True):
 
 def run(*args):
     return subprocess.run([BV, "capture", *args], capture_output=True, text=True)
+
+
+class FakeCoprocessor(threading.Thread):
+    """A TCP peer that waits for one command frame, then sends `answer(request)` and keeps the
+    connection open (the tool must stop at the capture end packet, not at end of file)."""
+
+    def __init__(self, answer):
+        super().__init__(daemon=True)
+        self.server = socket.create_server(("127.0.0.1", 0))
+        self.port = self.server.getsockname()[1]
+        self.answer, self.request = answer, None
+
+    def run(self):
+        conn, _ = self.server.accept()
+        self.server.close()
+        dec = Decoder()
+        while self.request is None:
+            data = conn.recv(4096)
+            if not data:
+                return
+            for msg in dec.feed(data):
+                self.request = msg
+        conn.sendall(self.answer(self.request))
+        conn.recv(1)  # until the tool closes its end
+        conn.close()
 
 
 class CaptureCli(unittest.TestCase):
@@ -96,6 +123,31 @@ class CaptureCli(unittest.TestCase):
             meta = f.read()
         self.assertIn('"note": "1 pair(s) lost in transmission"', meta)
         self.assertIn('"complete": false', meta)
+
+    def test_live_request_over_tcp(self):
+        peer = FakeCoprocessor(lambda req: stream(2))
+        peer.start()
+        out = os.path.join(self.dir, "live")
+        r = run(f"tcp:127.0.0.1:{peer.port}", "--out", out, "--pairs", "2", "--mode", "quarter",
+                "--seconds", "20")
+        peer.join(5)
+        self.assertEqual(r.returncode, 0, r.stdout + r.stderr)
+        mtype, seq, payload = peer.request  # what the tool sent: count 2, quarter, both cameras
+        self.assertEqual((mtype, seq, payload), (0x29, 1, struct.pack("<HBB", 2, 2, 3)))
+        self.assertIn("pairs_written=2 of 2", r.stdout)
+
+    def test_live_request_refused(self):
+        busy = encode_frame(0x11, 9, struct.pack("<BIBI", 0x29, 1, 12, 0))
+        peer = FakeCoprocessor(lambda req: busy)
+        peer.start()
+        r = run(f"tcp:127.0.0.1:{peer.port}", "--out", os.path.join(self.dir, "x"),
+                "--seconds", "20")
+        peer.join(5)
+        self.assertEqual(r.returncode, 1)
+        self.assertIn("the coprocessor refused the request: busy: a capture is running", r.stderr)
+        with open(os.path.join(self.dir, "x", "capture.json")) as f:
+            self.assertIn('"note": "refused by the coprocessor: busy: a capture is running"',
+                          f.read())
 
     def test_refused_options_and_outputs(self):
         src = self.write(stream(1))
