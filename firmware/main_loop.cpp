@@ -94,6 +94,7 @@ Status MainLoop::Init() {
 
   const Status camera = camera_.Start();
   if (!camera.ok()) status_.fault_flags |= kFaultCameraStart;
+  tx_capacity_ = uart_.WriteSpace();
   SendStatus();
   return camera;
 }
@@ -232,7 +233,197 @@ void MainLoop::PollCommands() {
         Send(std::span<const uint8_t>(packet_, reply_len));
       }
       if (r.send_status) SendStatus();
+      if (r.clock_sync) AnswerClockSync(r.sync);
     }
+  }
+}
+
+// t2: the request's delimiter as the receive interrupt stamped it (the loop's reaction time does
+// not enter). The reply waits until the TX ring is empty (a capture queues nothing meanwhile),
+// so t3, stamped then, is when its first byte starts: bytes queued ahead of it would be path
+// delay on one side only. After kSyncMaxWaitUs it goes anyway (a stalled line).
+void MainLoop::AnswerClockSync(const protocol::ClockSyncRequest& request) {
+  const Result<uint64_t> rx = uart_.LastRxFrameUs();
+  const uint64_t now = clock_.NowUs();
+  sync_.id = request.id;
+  sync_.t1_host_us = request.t1_host_us;
+  sync_.t2_rx_us = rx.ok() && *rx <= now ? *rx : now;
+  sync_pending_ = true;  // a newer request replaces one still waiting
+  SendPendingSync();
+}
+
+void MainLoop::SendPendingSync() {
+  if (!sync_pending_) return;
+  const uint64_t now = clock_.NowUs();
+  const size_t space = uart_.WriteSpace();
+  if (space < tx_capacity_ && now - sync_.t2_rx_us < kSyncMaxWaitUs) return;
+  sync_pending_ = false;
+  sync_.t3_tx_us = now;
+  const Result<size_t> n = protocol::EncodeClockSyncReply(sync_, seq_++, packet_);
+  if (!n.ok()) {
+    ++status_.pipeline_errors;
+    return;
+  }
+  const uint32_t dropped_before = status_.packets_dropped;
+  Send(std::span<const uint8_t>(packet_, *n));
+  if (status_.packets_dropped == dropped_before) ++sync_replies_sent_;
+}
+
+Status MainLoop::Capture::StartCapture(const protocol::CaptureRequest& request) {
+  CaptureState& c = loop_.capture_;
+  if (c.active) return Status(StatusCode::kFailedPrecondition, "capture: one is running");
+  if (loop_.camera_.MaxHeldPairs() < 2) {
+    return Status(StatusCode::kUnimplemented, "capture: the camera cannot hold a second pair");
+  }
+  const uint16_t id = static_cast<uint16_t>(c.id + 1);
+  c = CaptureState{};
+  c.active = true;
+  c.id = id;
+  c.count = request.count;
+  c.mode = request.mode;
+  c.cameras = request.cameras;
+  uint16_t w = 0, h = 0;
+  (void)protocol::CaptureSize(request.mode, w, h);  // the handler checked the mode
+  c.image_bytes = uint32_t{w} * h * 2u;
+  return Status();
+}
+
+Status MainLoop::Capture::StopCapture() {
+  CaptureState& c = loop_.capture_;
+  if (!c.active || c.end_pending) {
+    return Status(StatusCode::kFailedPrecondition, "capture: none running");
+  }
+  loop_.EndCapture(protocol::CaptureEndReason::kStopped);
+  return Status();
+}
+
+void MainLoop::EndCapture(protocol::CaptureEndReason reason) {
+  CaptureState& c = capture_;
+  if (c.holding) camera_.Release(c.pair);
+  c.holding = false;
+  c.end_pending = true;
+  c.end.capture_id = c.id;
+  c.end.requested = c.count;
+  c.end.pairs_sent = c.pairs_sent;
+  c.end.reason = reason;
+}
+
+bool MainLoop::TakeForCapture(const hal::FramePair& pair) {
+  CaptureState& c = capture_;
+  if (!c.active || c.holding || c.end_pending) return false;
+  uint8_t present = 0;
+  if (pair.omni.present && ToImage(pair.omni).valid()) present |= protocol::kCaptureOmni;
+  if (pair.persp.present && ToImage(pair.persp).valid()) present |= protocol::kCapturePersp;
+  present &= c.cameras;
+  if (present == 0 || (pair.flags & hal::kPairTorn) != 0) return false;  // nothing worth sending
+  c.holding = true;
+  c.header_sent = false;
+  c.pair = pair;
+  c.pair_cameras = present;
+  c.camera = (present & protocol::kCaptureOmni) != 0 ? 0 : 1;
+  c.offset = 0;
+  return true;
+}
+
+bool MainLoop::SendCapturePacket(const Result<size_t>& encoded, size_t reserve) {
+  if (!encoded.ok()) {
+    ++status_.pipeline_errors;
+    return false;
+  }
+  const size_t space = uart_.WriteSpace();
+  const size_t queued = tx_capacity_ > space ? tx_capacity_ - space : 0;
+  if (space < *encoded + reserve || queued + *encoded > kCaptureQueueLimitBytes) return false;
+  return uart_.Write(std::span<const uint8_t>(packet_, *encoded)).ok();
+}
+
+// Waits for room instead of dropping: a packet is encoded (and gets its sequence number) only
+// once it fits, so the capture stream has no gaps of its own.
+void MainLoop::PumpCapture() {
+  CaptureState& c = capture_;
+  if (!c.active || sync_pending_) return;  // let the ring empty for a clock sync reply
+  const size_t chunk_wire =
+      protocol::WireFrameBytes(protocol::kCaptureChunkHeaderBytes + protocol::kCaptureChunkBytes);
+  if (c.end_pending) {
+    if (uart_.WriteSpace() <
+        protocol::WireFrameBytes(protocol::kCaptureEndBytes) + kTxReserveBytes) {
+      return;
+    }
+    if (SendCapturePacket(protocol::EncodeCaptureEnd(c.end, seq_, packet_), kTxReserveBytes)) {
+      ++seq_;
+      c.active = false;
+      c.end_pending = false;
+    }
+    return;
+  }
+  if (!c.holding) {
+    if (camera_.Finished()) EndCapture(protocol::CaptureEndReason::kCameraFinished);
+    return;
+  }
+  for (uint32_t i = 0; i < config_.capture_chunks_per_poll; ++i) {
+    const size_t space = uart_.WriteSpace();
+    const size_t queued = tx_capacity_ > space ? tx_capacity_ - space : 0;
+    if (space < chunk_wire + kCaptureReserveBytes ||
+        queued + chunk_wire > kCaptureQueueLimitBytes) {
+      return;  // before encoding: no sequence number is spent on a packet that waits
+    }
+    if (!c.header_sent) {
+      protocol::CaptureFrame f;
+      f.capture_id = c.id;
+      f.pair_index = c.pairs_sent;
+      f.count = c.count;
+      f.mode = c.mode;
+      f.cameras = c.pair_cameras;
+      (void)protocol::CaptureSize(c.mode, f.width, f.height);
+      f.exposure_us = c.pair.exposure_us;
+      f.omni_exposure_us = c.pair.omni.present ? c.pair.omni.exposure_us : 0;
+      f.persp_exposure_us = c.pair.persp.present ? c.pair.persp.exposure_us : 0;
+      f.omni_sequence = c.pair.omni.sequence;
+      f.persp_sequence = c.pair.persp.sequence;
+      f.image_bytes = c.image_bytes;
+      if (!SendCapturePacket(protocol::EncodeCaptureFrame(f, seq_, packet_),
+                             kCaptureReserveBytes)) {
+        return;
+      }
+      ++seq_;
+      c.header_sent = true;
+      continue;
+    }
+    const hal::Frame& frame = c.camera == 0 ? c.pair.omni : c.pair.persp;
+    const size_t stride =
+        frame.stride_bytes != 0 ? frame.stride_bytes : kFrameWidth * kYuyvBytesPerPixel;
+    uint8_t data[protocol::kCaptureChunkBytes];
+    const size_t n =
+        c.image_bytes - c.offset < sizeof(data) ? c.image_bytes - c.offset : sizeof(data);
+    if (!protocol::CopyCaptureBytes(frame.data, stride, c.mode, c.offset,
+                                    std::span<uint8_t>(data, n))) {
+      ++status_.pipeline_errors;
+      EndCapture(protocol::CaptureEndReason::kStopped);
+      return;
+    }
+    protocol::CaptureChunk chunk;
+    chunk.capture_id = c.id;
+    chunk.pair_index = c.pairs_sent;
+    chunk.camera = c.camera;
+    chunk.offset = c.offset;
+    chunk.data = std::span<const uint8_t>(data, n);
+    if (!SendCapturePacket(protocol::EncodeCaptureChunk(chunk, seq_, packet_),
+                           kCaptureReserveBytes)) {
+      return;
+    }
+    ++seq_;
+    ++capture_chunks_sent_;
+    c.offset += static_cast<uint32_t>(n);
+    if (c.offset < c.image_bytes) continue;
+    c.offset = 0;
+    if (c.camera == 0 && (c.pair_cameras & protocol::kCapturePersp) != 0) {
+      c.camera = 1;
+      continue;
+    }
+    camera_.Release(c.pair);
+    c.holding = false;
+    ++c.pairs_sent;
+    if (c.pairs_sent >= c.count) EndCapture(protocol::CaptureEndReason::kComplete);
+    return;
   }
 }
 
@@ -330,6 +521,8 @@ void MainLoop::MaybeSendStatus(uint64_t exposure_us) {
 
 bool MainLoop::Poll() {
   PollCommands();
+  SendPendingSync();
+  PumpCapture();
   hal::FramePair pair;
   if (!camera_.AcquirePair(pair).ok()) {
     // Idle: keep the status heartbeat going on clock time (live camera stalled or absent).
@@ -367,7 +560,7 @@ bool MainLoop::Poll() {
   } else {
     ++status_.pipeline_errors;  // e.g. a NaN the encoder refuses; the stream stays valid
   }
-  camera_.Release(pair);
+  if (!TakeForCapture(pair)) camera_.Release(pair);
   SendFieldPackets(pair.exposure_us, in.omni.valid());
 
   const uint64_t total_us = clock_.NowUs() - start_us;
@@ -386,7 +579,7 @@ bool MainLoop::Poll() {
 }
 
 void MainLoop::RunUntilFinished() {
-  while (!camera_.Finished()) Poll();
+  while (!camera_.Finished() || capture_.active) Poll();
   SendStatus();
 }
 

@@ -41,6 +41,24 @@ inline constexpr size_t kTxReserveBytes =
     protocol::WireFrameBytes(protocol::kBallStatePayloadBytes) +
     protocol::WireFrameBytes(protocol::kStatusPayloadBytes);
 
+/// Capture chunks are queued only while the TX ring keeps this much free (ball state, status,
+/// a clock sync reply and a worst-case set of field packets) ...
+inline constexpr size_t kCaptureReserveBytes =
+    kTxReserveBytes + protocol::WireFrameBytes(protocol::kClockSyncReplyBytes) +
+    protocol::WireFrameBytes(protocol::kPosePayloadBytes) +
+    protocol::WireFrameBytes(protocol::kObstaclesHeaderBytes +
+                             protocol::kMaxObstaclesPerPacket * protocol::kObstacleBytes) +
+    protocol::WireFrameBytes(protocol::kLinePointsHeaderBytes +
+                             protocol::kMaxLinePointsPerPacket * protocol::kLinePointBytes);
+/// ... and only while at most this much is queued, so a ball state never waits behind more
+/// than two chunks (2 x 540 bytes: 11.7 ms at 921600 Bd).
+inline constexpr size_t kCaptureQueueLimitBytes =
+    2 * protocol::WireFrameBytes(protocol::kCaptureChunkHeaderBytes + protocol::kCaptureChunkBytes);
+
+/// Longest a clock sync reply waits for the TX ring to empty (a full ring drains in 22 ms at
+/// 921600 Bd).
+inline constexpr uint64_t kSyncMaxWaitUs = 50000;
+
 /// Parameters the main computer may set (protocol kSetParam).
 enum ParamId : uint16_t {
   kParamFramePeriodUs = 1,     // 1000 .. 1000000
@@ -58,6 +76,9 @@ struct MainLoopConfig {
   uint32_t status_interval_us = 1000000;  // of exposure time (and of clock time when idle)
   int calibration_slots[2] = {0, 1};      // A/B storage slots (hal/common/blob_store.h)
   int lut_slots[2] = {2, 3};
+  /// Capture chunks queued per Poll() at most. At 921600 Bd the queue limit allows ~2 anyway;
+  /// this bounds the work where the UART drains faster (QEMU's is instantaneous).
+  uint32_t capture_chunks_per_poll = 4;
   PipelineConfig pipeline;
 };
 
@@ -93,8 +114,9 @@ class MainLoop {
   /// One non-blocking iteration: serves received commands, then at most one frame pair.
   /// Returns true when a frame pair was handled.
   bool Poll();
-  /// Polls until the camera reports Finished() (captured sequences), then sends a final status
-  /// packet. A live camera never finishes: this is then the firmware's forever loop.
+  /// Polls until the camera reports Finished() (captured sequences) and a running capture has
+  /// sent what it holds, then sends a final status packet. A live camera never finishes: this
+  /// is then the firmware's forever loop.
   void RunUntilFinished();
   /// Encodes and queues the status packet now.
   void SendStatus();
@@ -103,6 +125,9 @@ class MainLoop {
   uint32_t ball_packets_sent() const { return ball_packets_sent_; }
   uint32_t status_packets_sent() const { return status_packets_sent_; }
   uint32_t feature_packets_sent() const { return feature_packets_sent_; }
+  uint32_t capture_chunks_sent() const { return capture_chunks_sent_; }
+  uint32_t sync_replies_sent() const { return sync_replies_sent_; }
+  bool capture_active() const { return capture_.active; }
   bool pipeline_ready() const { return pipeline_ready_; }
   const Pipeline& pipeline() const { return pipeline_; }
 
@@ -157,6 +182,41 @@ class MainLoop {
    private:
     MainLoop& loop_;
   };
+  // Capture over the link: one pair held in its camera slots and streamed in chunks between
+  // frames, lowest priority (docs/protocol.md, "Capture").
+  class Capture : public protocol::CaptureSink {
+   public:
+    explicit Capture(MainLoop& loop) : loop_(loop) {}
+    Status StartCapture(const protocol::CaptureRequest& request) override;
+    Status StopCapture() override;
+
+   private:
+    MainLoop& loop_;
+  };
+  struct CaptureState {
+    bool active = false;
+    bool holding = false;  // `pair` is held in the camera for streaming
+    bool header_sent = false;
+    bool end_pending = false;
+    uint16_t id = 0;
+    uint16_t count = 0;
+    uint16_t pairs_sent = 0;
+    protocol::CaptureMode mode = protocol::CaptureMode::kFull;
+    uint8_t cameras = 0;       // requested
+    uint8_t pair_cameras = 0;  // requested and present in the held pair
+    uint8_t camera = 0;        // image being streamed: 0 omni, 1 persp
+    uint32_t offset = 0;
+    uint32_t image_bytes = 0;
+    hal::FramePair pair;
+    protocol::CaptureEnd end;
+  };
+  /// Keeps the pair for the capture (true) or leaves it to be released.
+  bool TakeForCapture(const hal::FramePair& pair);
+  void PumpCapture();
+  bool SendCapturePacket(const Result<size_t>& encoded, size_t reserve);
+  void EndCapture(protocol::CaptureEndReason reason);
+  void AnswerClockSync(const protocol::ClockSyncRequest& request);
+  void SendPendingSync();
   void CountPairFlags(const hal::FramePair& pair);
   void MaybeSendStatus(uint64_t exposure_us);
 
@@ -178,6 +238,12 @@ class MainLoop {
   uint32_t ball_packets_sent_ = 0;
   uint32_t status_packets_sent_ = 0;
   uint32_t feature_packets_sent_ = 0;
+  uint32_t capture_chunks_sent_ = 0;
+  uint32_t sync_replies_sent_ = 0;
+  size_t tx_capacity_ = 0;  // WriteSpace() of the empty ring at Init()
+  CaptureState capture_;
+  protocol::ClockSyncReply sync_;  // t1, t2 of a request whose reply waits for an empty ring
+  bool sync_pending_ = false;
   // Status cadence and frame rate: the pairs since the last status packet.
   uint32_t interval_pairs_ = 0;
   uint64_t interval_first_exposure_us_ = 0;
@@ -189,8 +255,9 @@ class MainLoop {
   Uploads uploads_{*this};
   Params params_{*this};
   Hints hints_{*this};
+  Capture capture_sink_{*this};
   protocol::Decoder rx_;
-  protocol::CommandHandler commands_{uploads_, params_, &hints_};
+  protocol::CommandHandler commands_{uploads_, params_, &hints_, &capture_sink_};
 };
 
 }  // namespace bv::fw

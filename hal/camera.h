@@ -50,12 +50,16 @@ class Camera {
   void Release(const FramePair& pair) { DoRelease(pair); }
   /// True once the source has no more frames (captured sequences); live cameras never end.
   bool Finished() const { return DoFinished(); }
+  /// Pairs that may be held (acquired, not yet released) at once. 2 lets the loop keep one
+  /// pair for a capture over the link while it goes on with the next ones.
+  int MaxHeldPairs() const { return DoMaxHeldPairs(); }
 
  private:
   virtual Status DoStart() = 0;
   virtual Status DoAcquirePair(FramePair& out) = 0;
   virtual void DoRelease(const FramePair& pair) = 0;
   virtual bool DoFinished() const { return false; }
+  virtual int DoMaxHeldPairs() const { return 1; }
 };
 
 }  // namespace bv::hal

@@ -20,11 +20,14 @@ CommandResult CommandHandler::Handle(const FrameView& frame, uint32_t reply_seq,
                                      std::span<uint8_t> reply, size_t& reply_len) {
   CommandResult result;
   uint32_t detail = 0;
-  result.error = Dispatch(frame, result.send_status, detail);
+  result.error = Dispatch(frame, result, detail);
   result.reply_is_error = result.error != CommandError::kNone;
   if (result.reply_is_error) ++errors_;
   reply_len = 0;
-  if (frame.type == MsgType::kRequestStatus && !result.reply_is_error) return result;
+  if ((frame.type == MsgType::kRequestStatus || frame.type == MsgType::kClockSync) &&
+      !result.reply_is_error) {
+    return result;  // the caller answers with a status packet / sync reply
+  }
 
   uint8_t payload[10];
   ByteWriter w(payload);
@@ -40,14 +43,22 @@ CommandResult CommandHandler::Handle(const FrameView& frame, uint32_t reply_seq,
   return result;
 }
 
-CommandError CommandHandler::Dispatch(const FrameView& frame, bool& send_status,
+CommandError CommandHandler::Dispatch(const FrameView& frame, CommandResult& result,
                                       uint32_t& detail) {
   const auto p = frame.payload;
   switch (frame.type) {
     case MsgType::kRequestStatus:
       if (!p.empty()) return CommandError::kBadLength;
-      send_status = true;
+      result.send_status = true;
       return CommandError::kNone;
+    case MsgType::kClockSync:
+      if (!ParseClockSyncRequest(p, result.sync).ok()) return CommandError::kBadLength;
+      result.clock_sync = true;
+      return CommandError::kNone;
+    case MsgType::kCaptureStart:
+    case MsgType::kCaptureStop:
+      if (capture_ == nullptr) break;
+      return CaptureCommand(frame.type, p, detail);
     case MsgType::kSetParam: {
       if (p.size() != 6) return CommandError::kBadLength;
       ByteReader r(p);
@@ -107,6 +118,30 @@ CommandError CommandHandler::PoseCommand(MsgType type, std::span<const uint8_t> 
     }
     s = pose_->SetRobotPose(known == 1, x, y, h);
   }
+  return s.ok() ? CommandError::kNone : CommandError::kBadValue;
+}
+
+// detail: the limit a refused value broke (count: kMaxCapturePairs).
+CommandError CommandHandler::CaptureCommand(MsgType type, std::span<const uint8_t> p,
+                                            uint32_t& detail) {
+  if (type == MsgType::kCaptureStop) {
+    if (!p.empty()) return CommandError::kBadLength;
+    return capture_->StopCapture().ok() ? CommandError::kNone : CommandError::kNotRunning;
+  }
+  CaptureRequest req;
+  if (!ParseCaptureStart(p, req).ok()) return CommandError::kBadLength;
+  uint16_t w = 0, h = 0;
+  if (req.count == 0 || req.count > kMaxCapturePairs) {
+    detail = kMaxCapturePairs;
+    return CommandError::kBadValue;
+  }
+  if (!CaptureSize(req.mode, w, h) || req.cameras == 0 ||
+      (req.cameras & ~(kCaptureOmni | kCapturePersp)) != 0) {
+    return CommandError::kBadValue;
+  }
+  const Status s = capture_->StartCapture(req);
+  if (s.code() == StatusCode::kFailedPrecondition) return CommandError::kBusy;
+  if (s.code() == StatusCode::kUnimplemented) return CommandError::kUnsupported;
   return s.ok() ? CommandError::kNone : CommandError::kBadValue;
 }
 

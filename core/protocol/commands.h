@@ -10,6 +10,9 @@
 //   set field half  (0x25): half i8 (-1, 0, +1)             -> ack / error
 //   odometry        (0x26): dx f32 | dy f32 | dheading f32   -> ack / error
 //   set pose        (0x27): known u8 | x f32 | y f32 | heading f32 -> ack / error
+//   clock sync      (0x28): id u32 | t1_host_us u64         -> sync reply (by the caller)
+//   capture start   (0x29): count u16 | mode u8 | cameras u8 -> ack / error
+//   capture stop    (0x2A): empty                           -> ack / error
 // Replies: ack (0x10): cmd_type u8 | cmd_seq u32
 //          error (0x11): cmd_type u8 | cmd_seq u32 | code u8 (CommandError) | detail u32
 #include <cstddef>
@@ -17,6 +20,7 @@
 #include <span>
 
 #include "core/common/status.h"
+#include "core/protocol/link.h"
 #include "core/protocol/protocol.h"
 
 namespace bv::protocol {
@@ -38,6 +42,11 @@ enum class CommandError : uint8_t {
   kUnknownParam = 9,
   kBadValue = 10,       // NaN or out of the parameter's range
   kIncomplete = 11,     // commit before all bytes arrived
+
+  // Capture over the link.
+  kBusy = 12,         // a capture is already running
+  kUnsupported = 13,  // the board cannot do this (capture without a spare frame slot)
+  kNotRunning = 14,   // capture stop without a capture
 };
 
 /// Where uploads go: the firmware implements it over the A/B blob store, tests with RAM.
@@ -71,6 +80,17 @@ class PoseSink {
   virtual Status SetRobotPose(bool known, float x_m, float y_m, float heading_rad) = 0;
 };
 
+/// Frame capture over the link (the firmware streams from a held camera pair).
+class CaptureSink {
+ public:
+  virtual ~CaptureSink() = default;
+  /// Called with a checked request. kFailedPrecondition: a capture runs; kUnimplemented: the
+  /// board cannot hold a pair while the loop goes on.
+  virtual Status StartCapture(const CaptureRequest& request) = 0;
+  /// kFailedPrecondition when no capture runs.
+  virtual Status StopCapture() = 0;
+};
+
 // Ranges the handler accepts (the Pipeline and the pose parameters use the same limits).
 inline constexpr float kMaxOdometryStepM = 2.0f;
 inline constexpr float kMaxOdometryStepRad = 3.2f;
@@ -79,6 +99,8 @@ inline constexpr float kMaxPoseHeadingRad = 10.0f;
 
 struct CommandResult {
   bool send_status = false;  // the caller must send a status packet
+  bool clock_sync = false;   // the caller must send a clock sync reply to `sync`
+  ClockSyncRequest sync;
   bool reply_is_error = false;
   CommandError error = CommandError::kNone;
 };
@@ -86,8 +108,10 @@ struct CommandResult {
 class CommandHandler {
  public:
   /// Without a PoseSink the pose commands are answered kUnknownCommand.
-  CommandHandler(UploadSink& uploads, ParamSink& params, PoseSink* pose = nullptr)
-      : uploads_(uploads), params_(params), pose_(pose) {}
+  /// Without a CaptureSink the capture commands are answered kUnknownCommand.
+  CommandHandler(UploadSink& uploads, ParamSink& params, PoseSink* pose = nullptr,
+                 CaptureSink* capture = nullptr)
+      : uploads_(uploads), params_(params), pose_(pose), capture_(capture) {}
 
   /// Handles one verified frame from the Decoder and encodes the reply (ack or error) into
   /// `reply` (a whole wire frame). Returns the reply's size in `reply_len` (0: no reply).
@@ -96,7 +120,8 @@ class CommandHandler {
   uint32_t errors() const { return errors_; }
 
  private:
-  CommandError Dispatch(const FrameView& frame, bool& send_status, uint32_t& detail);
+  CommandError Dispatch(const FrameView& frame, CommandResult& result, uint32_t& detail);
+  CommandError CaptureCommand(MsgType type, std::span<const uint8_t> p, uint32_t& detail);
   CommandError UploadBegin(std::span<const uint8_t> p);
   CommandError UploadChunk(std::span<const uint8_t> p);
   CommandError UploadCommit(std::span<const uint8_t> p);
@@ -105,6 +130,7 @@ class CommandHandler {
   UploadSink& uploads_;
   ParamSink& params_;
   PoseSink* pose_;
+  CaptureSink* capture_;
   bool uploading_ = false;
   UploadTarget target_ = UploadTarget::kCalibration;
   size_t total_len_ = 0;

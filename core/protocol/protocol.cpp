@@ -22,7 +22,13 @@ constexpr char kSchema[] =
     "pose:t_us u64,state u8,flags u8,points_used inliers u16,x y heading f32,"
     "sigma_x sigma_y sigma_heading f32,quality f32;"
     "lines:t_us u64,found u16,count u8,reserved u8,count*(x_mm y_mm i16);"
-    "obstacles:t_us u64,found count u8,count*(x_mm y_mm i16,radius_mm u16)";
+    "obstacles:t_us u64,found count u8,count*(x_mm y_mm i16,radius_mm u16);"
+    "sync:id u32,t1_host_us t2_rx_us t3_tx_us u64;"
+    "capture_frame:capture_id pair_index count u16,mode cameras u8,width height u16,"
+    "exposure_us omni_exposure_us persp_exposure_us u64,omni_sequence persp_sequence u32,"
+    "image_bytes u32;"
+    "capture_chunk:capture_id pair_index u16,camera reserved u8,offset u32,data;"
+    "capture_end:capture_id requested pairs_sent u16,reason u8";
 
 bool Finite(float v) { return std::isfinite(v); }
 

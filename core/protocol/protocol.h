@@ -33,6 +33,11 @@ enum class MsgType : uint8_t {
   kPose = 0x03,        // self-localisation, one per frame pair
   kLinePoints = 0x04,  // floor points on field lines, one per frame pair (decimated)
   kObstacles = 0x05,   // obstacle footprints, one per frame pair
+  // Clock sync and capture over the link (core/protocol/link.h); ids left free before them.
+  kClockSyncReply = 0x0A,
+  kCaptureFrame = 0x0B,  // one captured pair: exposure times, size, mode
+  kCaptureChunk = 0x0C,  // image bytes of a captured pair
+  kCaptureEnd = 0x0D,    // a capture finished, was stopped or cut short
   kAck = 0x10,
   kError = 0x11,
   kRequestStatus = 0x20,
@@ -43,6 +48,9 @@ enum class MsgType : uint8_t {
   kSetFieldHalf = 0x25,
   kOdometry = 0x26,
   kSetPose = 0x27,
+  kClockSync = 0x28,     // NTP-style request: answered by kClockSyncReply
+  kCaptureStart = 0x29,  // stream the next N pairs (ack / error)
+  kCaptureStop = 0x2A,   // end a running capture (ack; kCaptureEnd follows)
 };
 
 /// 16-bit hash of the payload layouts below; bumped automatically when they change, so a

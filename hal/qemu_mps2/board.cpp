@@ -6,6 +6,9 @@
 //   frames=N       stop after N pairs (optional)
 //   period_us=N    frame period for the deadline accounting (default 33333)
 //   rx_bytes=N     test aid: the replay ends only after N bytes arrived on UART0
+//   capture_chunks=N  capture chunks queued per loop iteration at most (default 4); with
+//                  QEMU's instantaneous UART, 4000 streams a whole full-size pair (2400 chunks) per
+//                  iteration, so a capture takes consecutive pairs (replay test)
 //   selftest=fault executes an undefined instruction (tests the fault handler)
 //   inject=KIND@N[,KIND@N...]  fault injection keyed on the pair index N (from 0), for faults a
 //                  frames.csv cannot express (swapped / jumping timestamps and a camera that
@@ -189,6 +192,7 @@ Status BoardInit(BoardServices& out) {
 
   uint32_t value = 0;
   if (GetU32Arg("period_us", value) && value > 0) out.config.frame_period_us = value;
+  if (GetU32Arg("capture_chunks", value) && value > 0) out.config.capture_chunks_per_poll = value;
   uint32_t max_pairs = 0;
   GetU32Arg("frames", max_pairs);
 

@@ -68,7 +68,7 @@ bool SemihostingCamera::LoadFrame(hal::CameraId id, const char* file, const Fram
   const int pending = pairer_.pending_slot(id);
   int target = -1;
   for (int s = 0; s < kSlotsPerCamera; ++s) {
-    if (s != held_[c] && s != pending) {
+    if (((held_mask_[c] >> s) & 1u) == 0 && s != pending) {
       target = s;
       break;
     }
@@ -180,7 +180,7 @@ Status SemihostingCamera::DoAcquirePair(hal::FramePair& out) {
     f.exposure_us = d.exposure_us[c];
     f.sequence = d.sequence[c];
     f.present = true;
-    held_[c] = static_cast<int>(d.slot[c]);
+    held_mask_[c] |= 1u << d.slot[c];
     // Tear detection: a slot whose write sequence is odd is still being written by the DMA.
     // On hardware the same check reads the DMA's per-slot transfer state (remaining count /
     // frame counter) at handout; here only the injected tear leaves a write unfinished.
@@ -199,8 +199,8 @@ Status SemihostingCamera::DoAcquirePair(hal::FramePair& out) {
 }
 
 void SemihostingCamera::DoRelease(const hal::FramePair& pair) {
-  if (pair.omni.present) held_[0] = -1;
-  if (pair.persp.present) held_[1] = -1;
+  if (pair.omni.present) held_mask_[0] &= ~(1u << (pair.slot & 0xFFu));
+  if (pair.persp.present) held_mask_[1] &= ~(1u << ((pair.slot >> 8) & 0xFFu));
   if (pairs_served_ == faults_.hang_at + 1) {
     SemiWrite0("camera: inject hang: the loop never returns from this release\n");
     for (;;) asm volatile("" ::: "memory");

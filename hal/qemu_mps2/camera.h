@@ -55,6 +55,8 @@ class SemihostingCamera : public hal::Camera {
   Status DoStart() override;
   Status DoAcquirePair(hal::FramePair& out) override;
   void DoRelease(const hal::FramePair& pair) override;
+  // One pair held by a capture, the other slot for the loop's next pair.
+  int DoMaxHeldPairs() const override { return kSlotsPerCamera; }
   bool DoFinished() const override {
     return finished_ && (hold_counter_ == nullptr || *hold_counter_ >= hold_target_);
   }
@@ -73,8 +75,8 @@ class SemihostingCamera : public hal::Camera {
   hal::FramePairer pairer_;
   int csv_fd_ = -1;
   LineReader reader_;
-  int held_[hal::kCameraCount] = {-1, -1};
-  uint32_t max_pairs_ = 0;  // 0: all rows
+  uint32_t held_mask_[hal::kCameraCount] = {};  // slots handed out and not yet released
+  uint32_t max_pairs_ = 0;                      // 0: all rows
   uint32_t pairs_served_ = 0;
   uint32_t bad_rows_ = 0;
   uint32_t bad_frames_ = 0;

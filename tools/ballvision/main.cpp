@@ -26,6 +26,8 @@ constexpr Command kCommands[] = {
     {"calib", bv::cli::CmdCalib, "to-blob | to-json | show: convert the calibration file"},
     {"listen", bv::cli::CmdListen, "decode a serial stream (device, pty, file, tcp:HOST:PORT)"},
     {"seq", bv::cli::CmdSeq, "info | to-raw: inspect or convert a captured sequence"},
+    {"capture", bv::cli::CmdCapture, "SOURCE --out SEQ: frame pairs from the coprocessor"},
+    {"sync", bv::cli::CmdSync, "SOURCE: clock offset and drift of the coprocessor"},
 };
 
 void Usage(FILE* out) {

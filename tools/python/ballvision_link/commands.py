@@ -11,11 +11,15 @@ from .protocol import encode_frame
 MSG_ACK, MSG_ERROR = 0x10, 0x11
 REQUEST_STATUS, SET_PARAM, UPLOAD_BEGIN, UPLOAD_CHUNK, UPLOAD_COMMIT = 0x20, 0x21, 0x22, 0x23, 0x24
 SET_FIELD_HALF, ODOMETRY, SET_POSE = 0x25, 0x26, 0x27
+CLOCK_SYNC, CAPTURE_START, CAPTURE_STOP = 0x28, 0x29, 0x2A
+CAPTURE_FULL, CAPTURE_HALF, CAPTURE_QUARTER = 0, 1, 2
+CAPTURE_OMNI, CAPTURE_PERSP = 1, 2
 TARGET_CALIBRATION, TARGET_LUT = 1, 2
 MAX_CHUNK = 512
 ERRORS = {1: "unknown command", 2: "bad length", 3: "bad target", 4: "no upload", 5: "bad offset",
           6: "too large", 7: "verify failed", 8: "storage failed", 9: "unknown parameter",
-          10: "bad value", 11: "incomplete"}
+          10: "bad value", 11: "incomplete", 12: "busy (a capture is running)",
+          13: "unsupported by this board", 14: "no capture running"}
 
 
 def request_status(seq: int) -> bytes:
@@ -41,6 +45,26 @@ def odometry(seq: int, dx: float, dy: float, dheading: float) -> bytes:
 def set_pose(seq: int, x: float, y: float, heading: float, known: bool = True) -> bytes:
     """The robot's field pose (m, m, rad: field angle of the robot's +y); known=False forgets it."""
     return encode_frame(SET_POSE, seq, struct.pack("<B3f", 1 if known else 0, x, y, heading))
+
+
+def clock_sync(seq: int, rid: int, t1_us: int) -> bytes:
+    """Clock sync request: `rid` identifies it, `t1_us` is this computer's clock (µs) now;
+    answered by a ClockSyncReply (feed both to ClockSync)."""
+    return encode_frame(CLOCK_SYNC, seq, struct.pack("<IQ", rid, t1_us))
+
+
+def capture_start(seq: int, count: int, mode: int = CAPTURE_FULL,
+                  cameras: int = CAPTURE_OMNI | CAPTURE_PERSP) -> bytes:
+    """Stream the next `count` pairs (1..100; 1 = a snapshot) at full, half or quarter size."""
+    if not 1 <= count <= 100:
+        raise ValueError("capture: count must be 1..100")
+    if mode not in (CAPTURE_FULL, CAPTURE_HALF, CAPTURE_QUARTER) or cameras not in (1, 2, 3):
+        raise ValueError("capture: mode 0..2, cameras 1..3")
+    return encode_frame(CAPTURE_START, seq, struct.pack("<HBB", count, mode, cameras))
+
+
+def capture_stop(seq: int) -> bytes:
+    return encode_frame(CAPTURE_STOP, seq, b"")
 
 
 def upload(seq: int, target: int, blob: bytes, chunk: int = MAX_CHUNK) -> List[bytes]:

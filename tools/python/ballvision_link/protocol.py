@@ -11,7 +11,10 @@ MSG_STATUS = 0x02
 MSG_POSE = 0x03
 MSG_LINE_POINTS = 0x04
 MSG_OBSTACLES = 0x05
+MSG_CLOCK_SYNC_REPLY = 0x0A
+MSG_CAPTURE_FRAME, MSG_CAPTURE_CHUNK, MSG_CAPTURE_END = 0x0B, 0x0C, 0x0D
 HEADER = struct.Struct("<BBHIH")
+WIRE_OVERHEAD_BYTES = HEADER.size + 4  # header + CRC-32
 MAX_PAYLOAD = 1024
 # Receive limits of core/protocol's Decoder (kMaxRawFrameBytes, kMaxWireFrameBytes): a frame
 # beyond them is refused the same way by both decoders
@@ -32,7 +35,13 @@ _SCHEMA = (
     "pose:t_us u64,state u8,flags u8,points_used inliers u16,x y heading f32,"
     "sigma_x sigma_y sigma_heading f32,quality f32;"
     "lines:t_us u64,found u16,count u8,reserved u8,count*(x_mm y_mm i16);"
-    "obstacles:t_us u64,found count u8,count*(x_mm y_mm i16,radius_mm u16)")
+    "obstacles:t_us u64,found count u8,count*(x_mm y_mm i16,radius_mm u16);"
+    "sync:id u32,t1_host_us t2_rx_us t3_tx_us u64;"
+    "capture_frame:capture_id pair_index count u16,mode cameras u8,width height u16,"
+    "exposure_us omni_exposure_us persp_exposure_us u64,omni_sequence persp_sequence u32,"
+    "image_bytes u32;"
+    "capture_chunk:capture_id pair_index u16,camera reserved u8,offset u32,data;"
+    "capture_end:capture_id requested pairs_sent u16,reason u8")
 SCHEMA_HASH = zlib.crc32(_SCHEMA.encode()) & 0xFFFF
 
 MODES = ("none", "rolling", "flying", "bouncing")
@@ -44,7 +53,16 @@ _POSE = struct.Struct("<QBBHH7f")
 _LINES_HEAD = struct.Struct("<QHBB")
 _OBSTACLES_HEAD = struct.Struct("<QBB")
 assert _BALL.size == 92 and _STATUS.size == 104 and _POSE.size == 42
+_SYNC_REPLY = struct.Struct("<IQQQ")
+_CAPTURE_FRAME = struct.Struct("<HHHBBHHQQQIII")
+_CAPTURE_CHUNK_HEAD = struct.Struct("<HHBBI")
+_CAPTURE_END = struct.Struct("<HHHB")
 assert _LINES_HEAD.size == 12 and _OBSTACLES_HEAD.size == 10
+assert _SYNC_REPLY.size == 28 and _CAPTURE_FRAME.size == 48 and _CAPTURE_CHUNK_HEAD.size == 10
+assert _CAPTURE_END.size == 7
+CAPTURE_MODES = {0: (640, 480), 1: (320, 240), 2: (160, 120)}  # full, half, quarter
+CAPTURE_MAX_PAIRS, CAPTURE_CHUNK_BYTES, FRAME_BYTES = 100, 512, 640 * 480 * 2
+CAPTURE_END_REASONS = ("complete", "stopped", "camera finished")
 MAX_LINE_POINTS, MAX_OBSTACLES = 64, 16
 POSE_STATES = ("unknown", "searching", "tracking", "coasting")
 POSE_AMBIGUOUS, POSE_HINT_REJECTED, POSE_USABLE = 1, 2, 4
@@ -145,6 +163,54 @@ class Obstacles:
     t_us: int
     found: int
     obstacles: List[Tuple[float, float, float]]
+
+
+@dataclass
+class ClockSyncReply:
+    """Answer to a clock sync request: t1 echoed (host clock), t2 / t3 coprocessor clock."""
+    seq: int
+    id: int
+    t1_host_us: int
+    t2_rx_us: int
+    t3_tx_us: int
+
+
+@dataclass
+class CaptureFrame:
+    """Announces one captured pair; its images follow as CaptureChunk packets."""
+    seq: int
+    capture_id: int
+    pair_index: int
+    count: int
+    mode: int
+    cameras: int  # bit 0 omni, bit 1 persp
+    width: int
+    height: int
+    exposure_us: int
+    omni_exposure_us: int
+    persp_exposure_us: int
+    omni_sequence: int
+    persp_sequence: int
+    image_bytes: int
+
+
+@dataclass
+class CaptureChunk:
+    seq: int
+    capture_id: int
+    pair_index: int
+    camera: int  # 0 omni, 1 persp
+    offset: int
+    data: bytes
+
+
+@dataclass
+class CaptureEnd:
+    seq: int
+    capture_id: int
+    requested: int
+    pairs_sent: int
+    reason: str
 
 
 def cobs_encode(data: bytes) -> bytes:
@@ -250,11 +316,56 @@ def parse_obstacles(seq: int, payload: bytes) -> Optional[Obstacles]:
                                          v[3 * i + 2] / 1000.0) for i in range(count)])
 
 
+def parse_clock_sync_reply(seq: int, payload: bytes) -> Optional[ClockSyncReply]:
+    if len(payload) != _SYNC_REPLY.size:
+        return None
+    rid, t1, t2, t3 = _SYNC_REPLY.unpack(payload)
+    if t3 < t2:
+        return None
+    return ClockSyncReply(seq, rid, t1, t2, t3)
+
+
+def parse_capture_frame(seq: int, payload: bytes) -> Optional[CaptureFrame]:
+    if len(payload) != _CAPTURE_FRAME.size:
+        return None
+    f = CaptureFrame(seq, *_CAPTURE_FRAME.unpack(payload))
+    size = CAPTURE_MODES.get(f.mode)
+    if size is None or f.cameras not in (1, 2, 3) or (f.width, f.height) != size or \
+            f.image_bytes != f.width * f.height * 2:
+        return None
+    if not 0 < f.count <= CAPTURE_MAX_PAIRS or f.pair_index >= f.count:
+        return None
+    return f
+
+
+def parse_capture_chunk(seq: int, payload: bytes) -> Optional[CaptureChunk]:
+    n = len(payload) - _CAPTURE_CHUNK_HEAD.size
+    if not 0 < n <= CAPTURE_CHUNK_BYTES:
+        return None
+    cid, pair, camera, reserved, offset = _CAPTURE_CHUNK_HEAD.unpack_from(payload)
+    if camera > 1 or reserved or offset + n > FRAME_BYTES:
+        return None
+    return CaptureChunk(seq, cid, pair, camera, offset, bytes(payload[_CAPTURE_CHUNK_HEAD.size:]))
+
+
+def parse_capture_end(seq: int, payload: bytes) -> Optional[CaptureEnd]:
+    if len(payload) != _CAPTURE_END.size:
+        return None
+    cid, requested, sent, reason = _CAPTURE_END.unpack(payload)
+    if reason >= len(CAPTURE_END_REASONS) or sent > requested:
+        return None
+    return CaptureEnd(seq, cid, requested, sent, CAPTURE_END_REASONS[reason])
+
+
 _PARSERS = {MSG_BALL_STATE: parse_ball_state,
             MSG_STATUS: parse_status,
             MSG_POSE: parse_pose,
             MSG_LINE_POINTS: parse_line_points,
-            MSG_OBSTACLES: parse_obstacles}
+            MSG_OBSTACLES: parse_obstacles,
+            MSG_CLOCK_SYNC_REPLY: parse_clock_sync_reply,
+            MSG_CAPTURE_FRAME: parse_capture_frame,
+            MSG_CAPTURE_CHUNK: parse_capture_chunk,
+            MSG_CAPTURE_END: parse_capture_end}
 
 
 class Decoder:

@@ -1,0 +1,312 @@
+// Capture and clock sync through the firmware main loop on the host, over the simulated
+// 921600 Bd link of host_tests/link_sim.h.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <cstring>
+#include <memory>
+#include <vector>
+
+#include "core/common/bytes.h"
+#include "core/protocol/link.h"
+#include "core/protocol/protocol.h"
+#include "firmware/main_loop.h"
+#include "tools/ballvision/capture_collector.h"
+// The firmware folder is only built for the target; the loop is compiled into this test.
+#include "firmware/main_loop.cpp"  // NOLINT(build/include)
+#include "host_tests/link_sim.h"
+
+namespace bv::fw {
+namespace {
+
+using namespace sim;  // NOLINT(build/namespaces)
+
+struct Received {
+  std::vector<tools::CapturedPair> pairs;
+  std::vector<std::string> messages;
+  std::vector<uint64_t> ball_done_us;  // when each ball state's last byte left
+  std::vector<protocol::CaptureEnd> ends;
+  std::vector<std::array<uint8_t, 10>> errors;
+  std::vector<protocol::ClockSyncReply> syncs;
+  uint32_t decoder_errors = 0;
+  uint32_t seq_gaps = 0;
+  uint32_t capture_bytes = 0;
+  uint64_t first_chunk_us = 0, last_chunk_us = 0;
+};
+
+Received DecodeWire(const PacedUart& uart, size_t limit = SIZE_MAX) {
+  Received r;
+  protocol::Decoder d;
+  protocol::FrameView f;
+  tools::CaptureCollector collector;
+  std::string msg;
+  bool have_seq = false;
+  uint32_t last = 0;
+  const size_t n = std::min(limit, uart.wire.size());
+  for (size_t i = 0; i < n; ++i) {
+    if (!d.Push(uart.wire[i], f)) continue;
+    if (have_seq && f.seq != last + 1) ++r.seq_gaps;
+    have_seq = true;
+    last = f.seq;
+    const auto ev = collector.Feed(f, msg);
+    if (!msg.empty()) r.messages.push_back(msg);
+    if (ev == tools::CaptureCollector::Event::kPairComplete) r.pairs.push_back(collector.pair());
+    if (ev == tools::CaptureCollector::Event::kEnd) r.ends.push_back(collector.end());
+    if (f.type == protocol::MsgType::kBallState) r.ball_done_us.push_back(uart.wire_done_us[i]);
+    if (f.type == protocol::MsgType::kCaptureChunk) {
+      r.capture_bytes += static_cast<uint32_t>(f.payload.size() - 10);
+      if (r.first_chunk_us == 0) r.first_chunk_us = uart.wire_done_us[i];
+      r.last_chunk_us = uart.wire_done_us[i];
+    }
+    if (f.type == protocol::MsgType::kError) {
+      std::array<uint8_t, 10> e{};
+      std::copy(f.payload.begin(), f.payload.end(), e.begin());
+      r.errors.push_back(e);
+    }
+    if (f.type == protocol::MsgType::kClockSyncReply) {
+      protocol::ClockSyncReply s;
+      EXPECT_TRUE(protocol::ParseClockSyncReply(f.payload, s).ok());
+      r.syncs.push_back(s);
+    }
+  }
+  if (collector.Finish(msg)) r.messages.push_back(msg);
+  r.decoder_errors = d.stats().errors();
+  return r;
+}
+
+// The decimated image read pixel by pixel from the pattern (independent of CopyCaptureBytes).
+std::vector<uint8_t> Expected(uint32_t pair, int camera, protocol::CaptureMode mode) {
+  uint16_t w = 0, h = 0;
+  EXPECT_TRUE(protocol::CaptureSize(mode, w, h));
+  const size_t k = 640 / w;
+  std::vector<uint8_t> out(size_t{w} * h * 2);
+  for (size_t y = 0; y < h; ++y) {
+    for (size_t x = 0; x < w; ++x) {
+      const size_t row = k * y * 1280;
+      out[(y * w + x) * 2] = PatternByte(pair, camera, row + 2 * k * x);
+      const size_t sm = k * (x - x % 2) / 2;
+      out[(y * w + x) * 2 + 1] = PatternByte(pair, camera, row + 4 * sm + (x % 2 ? 3 : 1));
+    }
+  }
+  return out;
+}
+
+class CaptureLoopTest : public ::testing::Test {
+ protected:
+  void Start(uint32_t pairs) {
+    camera_ = std::make_unique<SimCamera>(clock_, pairs);
+    loop_ = std::make_unique<MainLoop>(*camera_, uart_, clock_, storage_, scratch_);
+    ASSERT_TRUE(loop_->Init().ok());
+  }
+  void Command(protocol::MsgType type, std::span<const uint8_t> payload) {
+    std::array<uint8_t, protocol::kMaxWireFrameBytes> wire{};
+    const Result<size_t> n = protocol::EncodeFrame(type, cmd_seq_++, payload, wire);
+    ASSERT_TRUE(n.ok());
+    uart_.Feed(std::span<const uint8_t>(wire.data(), *n), clock_.now);
+  }
+  void Capture(uint16_t count, protocol::CaptureMode mode, uint8_t cameras = 3) {
+    const uint8_t p[4] = {static_cast<uint8_t>(count), static_cast<uint8_t>(count >> 8),
+                          static_cast<uint8_t>(mode), cameras};
+    Command(protocol::MsgType::kCaptureStart, p);
+  }
+  // Polls every 100 µs of simulated time until `until_us`, or until the camera has finished and
+  // the loop has nothing left to capture.
+  void RunUntil(uint64_t until_us) {
+    while (clock_.now < until_us) {
+      loop_->Poll();
+      clock_.now += 100;
+      uart_.Advance(clock_.now);
+      if (camera_->Finished() && !loop_->capture_active()) break;
+    }
+  }
+  void Drain() {
+    for (int i = 0; i < 100000; ++i) {
+      clock_.now += 100;
+      uart_.Advance(clock_.now);
+    }
+  }
+
+  SimClock clock_;
+  PacedUart uart_;
+  NoStorage storage_;
+  std::vector<uint8_t> scratch_ = std::vector<uint8_t>(kBlobScratchBytes);
+  std::unique_ptr<SimCamera> camera_;
+  std::unique_ptr<MainLoop> loop_;
+  uint32_t cmd_seq_ = 1;
+};
+
+TEST_F(CaptureLoopTest, QuarterCaptureArrivesIntactWhileBallStatesKeepTheirRate) {
+  Start(90);  // 3 s
+  Capture(2, protocol::CaptureMode::kQuarter);
+  RunUntil(1000 + 90 * kPeriodUs);
+  Drain();
+  const Received r = DecodeWire(uart_);
+  EXPECT_EQ(r.decoder_errors, 0u);
+  EXPECT_EQ(r.seq_gaps, 0u);
+  ASSERT_EQ(r.pairs.size(), 2u) << (r.messages.empty() ? "" : r.messages[0]);
+  ASSERT_EQ(r.ends.size(), 1u);
+  EXPECT_EQ(r.ends[0].reason, protocol::CaptureEndReason::kComplete);
+  EXPECT_EQ(r.ends[0].pairs_sent, 2);
+  for (const tools::CapturedPair& p : r.pairs) {
+    const uint32_t src = p.frame.omni_sequence;
+    EXPECT_EQ(p.frame.exposure_us, 1000 + uint64_t{src} * kPeriodUs);
+    EXPECT_EQ(p.image[0], Expected(src, 0, protocol::CaptureMode::kQuarter)) << "pair " << src;
+    EXPECT_EQ(p.image[1], Expected(src, 1, protocol::CaptureMode::kQuarter)) << "pair " << src;
+  }
+  EXPECT_GT(r.pairs[1].frame.omni_sequence, r.pairs[0].frame.omni_sequence);
+  // Every pair got its ball state; none waited longer than a frame period plus two chunks.
+  EXPECT_EQ(r.ball_done_us.size(), 90u);
+  EXPECT_EQ(loop_->status().packets_dropped, 0u);
+  EXPECT_EQ(camera_->frames_lost, 0u);
+  EXPECT_LE(camera_->max_held, 2);
+  uint64_t worst_gap = 0;
+  for (size_t i = 1; i < r.ball_done_us.size(); ++i) {
+    worst_gap = std::max(worst_gap, r.ball_done_us[i] - r.ball_done_us[i - 1]);
+  }
+  EXPECT_LT(worst_gap, kPeriodUs + 12000) << "ball-state spacing on the wire";
+  // The capture used most of the link: at least 70 % of 92160 B/s while it ran.
+  const double rate = r.capture_bytes / ((r.last_chunk_us - r.first_chunk_us) * 1e-6);
+  EXPECT_GT(rate, 0.7 * 92160) << rate;
+}
+
+TEST_F(CaptureLoopTest, RefusesASecondCaptureAndStopsOnCommand) {
+  Start(150);
+  Capture(5, protocol::CaptureMode::kHalf, protocol::kCaptureOmni);  // ~1.8 s a pair
+  RunUntil(1000 + 5 * kPeriodUs);
+  Capture(1, protocol::CaptureMode::kFull);    // while the first runs
+  Capture(500, protocol::CaptureMode::kFull);  // absurd
+  RunUntil(1000 + 90 * kPeriodUs);
+  Command(protocol::MsgType::kCaptureStop, {});
+  RunUntil(1000 + 150 * kPeriodUs);
+  Drain();
+  const Received r = DecodeWire(uart_);
+  ASSERT_EQ(r.errors.size(), 2u);
+  EXPECT_EQ(r.errors[0][0], static_cast<uint8_t>(protocol::MsgType::kCaptureStart));
+  EXPECT_EQ(r.errors[0][5], static_cast<uint8_t>(protocol::CommandError::kBusy));
+  EXPECT_EQ(r.errors[1][5], static_cast<uint8_t>(protocol::CommandError::kBadValue));
+  ASSERT_EQ(r.ends.size(), 1u);
+  EXPECT_EQ(r.ends[0].reason, protocol::CaptureEndReason::kStopped);
+  EXPECT_EQ(r.ends[0].requested, 5);
+  EXPECT_EQ(r.ends[0].pairs_sent, r.pairs.size());
+  EXPECT_GE(r.pairs.size(), 1u);
+  EXPECT_LT(r.pairs.size(), 5u);
+  for (const tools::CapturedPair& p : r.pairs) {
+    EXPECT_TRUE(p.image[1].empty()) << "omni only was asked for";
+    EXPECT_EQ(p.image[0], Expected(p.frame.omni_sequence, 0, protocol::CaptureMode::kHalf));
+  }
+  EXPECT_EQ(r.ball_done_us.size(), 150u);
+  EXPECT_LE(camera_->max_held, 2);
+}
+
+TEST_F(CaptureLoopTest, CameraThatEndsCutsTheCaptureShortAndSaysSo) {
+  Start(10);  // 0.33 s: one full pair takes ~14 s of link time
+  Capture(3, protocol::CaptureMode::kFull, protocol::kCapturePersp);
+  // The loop keeps streaming the held pair after the camera's end (RunUntilFinished does the
+  // same on the board, where the UART drains by itself).
+  loop_->Poll();  // reads the request
+  ASSERT_TRUE(loop_->capture_active());
+  for (int i = 0; i < 400000 && loop_->capture_active(); ++i) {
+    clock_.now += 100;
+    uart_.Advance(clock_.now);
+    loop_->Poll();
+  }
+  EXPECT_TRUE(camera_->Finished());
+  Drain();
+  const Received r = DecodeWire(uart_);
+  ASSERT_EQ(r.pairs.size(), 1u);
+  EXPECT_EQ(r.pairs[0].image[1],
+            Expected(r.pairs[0].frame.persp_sequence, 1, protocol::CaptureMode::kFull));
+  ASSERT_EQ(r.ends.size(), 1u);
+  EXPECT_EQ(r.ends[0].reason, protocol::CaptureEndReason::kCameraFinished);
+  EXPECT_EQ(r.ends[0].pairs_sent, 1);
+}
+
+TEST_F(CaptureLoopTest, StreamCutHalfWayKeepsTheCompletePairs) {
+  Start(120);
+  Capture(3, protocol::CaptureMode::kQuarter);
+  RunUntil(1000 + 120 * kPeriodUs);
+  Drain();
+  const Received whole = DecodeWire(uart_);
+  ASSERT_EQ(whole.pairs.size(), 3u);
+  // Cut inside the second pair's images.
+  size_t cut = 0;
+  {
+    protocol::Decoder d;
+    protocol::FrameView f;
+    int chunks = 0;
+    for (size_t i = 0; i < uart_.wire.size() && cut == 0; ++i) {
+      if (d.Push(uart_.wire[i], f) && f.type == protocol::MsgType::kCaptureChunk &&
+          ++chunks == 150 + 75) {
+        cut = i + 1;  // pair 0 has 150 chunks, pair 1 is half sent
+      }
+    }
+  }
+  ASSERT_GT(cut, 0u);
+  const Received r = DecodeWire(uart_, cut);
+  ASSERT_EQ(r.pairs.size(), 1u);
+  EXPECT_EQ(r.pairs[0].image[0], whole.pairs[0].image[0]);
+  EXPECT_TRUE(r.ends.empty());
+  ASSERT_FALSE(r.messages.empty());
+  EXPECT_EQ(r.messages.back(),
+            "pair 1 of capture 1 incomplete: the stream ended after 38400 of 76800 bytes");
+}
+
+TEST_F(CaptureLoopTest, ClockSyncReplyCarriesTheArrivalStampAndEchoesTheRequest) {
+  Start(30);
+  uint8_t p[12];
+  ByteWriter w(p);
+  w.U32(5), w.U64(1700000000000042ull);
+  clock_.now = 50000;
+  Command(protocol::MsgType::kClockSync, p);  // stamped at 50000 by the "interrupt"
+  clock_.now = 50800;                         // the loop gets to it 0.8 ms later
+  uart_.Advance(clock_.now);                  // the boot status has left: the ring is empty
+  loop_->Poll();
+  uart_.Advance(clock_.now + 100000);
+  const Received r = DecodeWire(uart_);
+  ASSERT_EQ(r.syncs.size(), 1u);
+  EXPECT_EQ(r.syncs[0].id, 5u);
+  EXPECT_EQ(r.syncs[0].t1_host_us, 1700000000000042ull);
+  EXPECT_EQ(r.syncs[0].t2_rx_us, 50000u);
+  EXPECT_EQ(r.syncs[0].t3_tx_us, 50800u);
+  EXPECT_EQ(loop_->sync_replies_sent(), 1u);
+  EXPECT_TRUE(r.errors.empty());
+}
+
+// During a capture the reply waits for the ring to empty: t3 is when its first byte starts.
+TEST_F(CaptureLoopTest, ClockSyncReplyDuringACaptureIsStampedWhenItLeaves) {
+  Start(60);
+  Capture(1, protocol::CaptureMode::kHalf);
+  RunUntil(1000 + 10 * kPeriodUs);
+  ASSERT_TRUE(loop_->capture_active());
+  uint8_t p[12];
+  ByteWriter w(p);
+  w.U32(6), w.U64(77);
+  Command(protocol::MsgType::kClockSync, p);
+  const size_t before = uart_.wire.size();
+  RunUntil(1000 + 20 * kPeriodUs);
+  Drain();
+  const Received r = DecodeWire(uart_);
+  ASSERT_EQ(r.syncs.size(), 1u);
+  const protocol::ClockSyncReply& s = r.syncs[0];
+  EXPECT_GT(s.t3_tx_us, s.t2_rx_us + 1000) << "a chunk was on the line: the reply waited";
+  EXPECT_LT(s.t3_tx_us, s.t2_rx_us + 15000) << "at most two chunks and a ball state";
+  // Find the reply's first byte on the wire: the byte after the delimiter that precedes it.
+  protocol::Decoder d;
+  protocol::FrameView f;
+  size_t start = 0;
+  for (size_t i = 0; i < uart_.wire.size(); ++i) {
+    if (!d.Push(uart_.wire[i], f)) continue;
+    if (f.type == protocol::MsgType::kClockSyncReply) break;
+    start = i + 1;
+  }
+  ASSERT_GT(start, before);
+  const double byte_us = 1.0 / kBytesPerUs;
+  EXPECT_NEAR(static_cast<double>(uart_.wire_done_us[start]) - byte_us,
+              static_cast<double>(s.t3_tx_us), 100 + byte_us)
+      << "first byte left within one poll step of t3";
+  EXPECT_EQ(r.seq_gaps, 0u);
+}
+
+}  // namespace
+}  // namespace bv::fw

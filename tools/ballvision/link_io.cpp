@@ -1,0 +1,98 @@
+#include "tools/ballvision/link_io.h"
+
+#include <fcntl.h>
+#include <netdb.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <termios.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+
+namespace bv::cli {
+namespace {
+
+speed_t Baud(long baud) {
+  switch (baud) {
+    case 115200:
+      return B115200;
+    case 230400:
+      return B230400;
+    case 460800:
+      return B460800;
+    case 921600:
+      return B921600;
+    case 1000000:
+      return B1000000;
+    case 2000000:
+      return B2000000;
+    default:
+      return 0;
+  }
+}
+
+}  // namespace
+
+int OpenLink(const std::string& src, long baud, bool& writable, std::string& err) {
+  writable = false;
+  if (src == "-") return STDIN_FILENO;
+  if (src.rfind("tcp:", 0) == 0) {
+    const std::string rest = src.substr(4);
+    const size_t colon = rest.rfind(':');
+    if (colon == std::string::npos) {
+      err = "tcp source must be tcp:HOST:PORT";
+      return -1;
+    }
+    addrinfo hints{};
+    hints.ai_family = AF_UNSPEC;
+    hints.ai_socktype = SOCK_STREAM;
+    addrinfo* res = nullptr;
+    const std::string host = rest.substr(0, colon), port = rest.substr(colon + 1);
+    if (getaddrinfo(host.c_str(), port.c_str(), &hints, &res) != 0 || res == nullptr) {
+      err = "cannot resolve " + host + ":" + port;
+      return -1;
+    }
+    int fd = -1;
+    for (int attempt = 0; attempt < 50 && fd < 0; ++attempt) {  // QEMU may still be starting
+      fd = socket(res->ai_family, res->ai_socktype, res->ai_protocol);
+      if (fd >= 0 && connect(fd, res->ai_addr, res->ai_addrlen) != 0) {
+        close(fd);
+        fd = -1;
+        usleep(100000);
+      }
+    }
+    freeaddrinfo(res);
+    if (fd < 0) err = "cannot connect to " + src + ": " + std::strerror(errno);
+    writable = fd >= 0;
+    return fd;
+  }
+  struct stat st {};
+  const bool regular = stat(src.c_str(), &st) == 0 && S_ISREG(st.st_mode);
+  const int fd = open(src.c_str(), (regular ? O_RDONLY : O_RDWR) | O_NOCTTY);
+  if (fd < 0) {
+    err = "cannot open " + src + ": " + std::strerror(errno);
+    return -1;
+  }
+  writable = !regular;
+  if (isatty(fd)) {
+    termios t{};
+    if (tcgetattr(fd, &t) == 0) {
+      cfmakeraw(&t);
+      const speed_t sp = Baud(baud);
+      if (sp == 0) {
+        err = "unsupported baud rate " + std::to_string(baud);
+        close(fd);
+        return -1;
+      }
+      cfsetispeed(&t, sp);
+      cfsetospeed(&t, sp);
+      t.c_cc[VMIN] = 0;
+      t.c_cc[VTIME] = 2;
+      tcsetattr(fd, TCSANOW, &t);
+    }
+  }
+  return fd;
+}
+
+}  // namespace bv::cli
