@@ -22,14 +22,12 @@ using namespace omni;  // NOLINT: the steps of this command
 
 constexpr double kPi = 3.14159265358979323846;
 
-void Usage() {
-  std::fprintf(stderr,
-               "usage: ballvision calibrate omni SEQ --carpet SEQ/carpet.json --viewpoint-z F_O\n"
-               "         --out CALIB.json [--report DIR]\n"
-               "  F_O: mirror viewpoint height (m), a mechanical constant of the rig\n"
-               "  --report DIR: samples, support vectors, residuals as CSV (plot with\n"
-               "                tools/python/plot_omni_calib.py DIR)\n");
-}
+constexpr char kUsage[] =
+    "usage: ballvision calibrate omni SEQ --carpet SEQ/carpet.json --viewpoint-z F_O\n"
+    "         --out CALIB.json [--report DIR]\n"
+    "  F_O: mirror viewpoint height (m), a mechanical constant of the rig\n"
+    "  --report DIR: samples, support vectors, residuals as CSV (plot with\n"
+    "                tools/python/plot_omni_calib.py DIR)\n";
 
 struct OmniArgs {
   std::string seq, carpet_path, out, report;
@@ -38,53 +36,25 @@ struct OmniArgs {
 
 // Returns -1 to go on, else the exit code.
 int ParseArgs(int argc, char** argv, OmniArgs& a) {
-  for (int i = 1; i < argc; ++i) {
-    const std::string arg = argv[i];
-    if (arg == "--help" || arg == "-h") {
-      Usage();
-      return 0;
-    }
-    if (arg.rfind("--", 0) == 0) {
-      if (i + 1 >= argc) {
-        Usage();
-        return 2;
-      }
-      const std::string v = argv[++i];
-      if (arg == "--carpet") {
-        a.carpet_path = v;
-      } else if (arg == "--viewpoint-z") {
-        std::string e;
-        if (!ArgNumber(arg, v, 0.05, 5, a.f_o, e)) {
-          std::fprintf(stderr, "calibrate omni: %s (the mirror viewpoint height in metres)\n",
-                       e.c_str());
-          return 2;
-        }
-      } else if (arg == "--out") {
-        a.out = v;
-      } else if (arg == "--report") {
-        a.report = v;
-      } else {
-        std::fprintf(stderr, "calibrate omni: unknown option %s\n", arg.c_str());
-        return 2;
-      }
-    } else if (a.seq.empty()) {
-      a.seq = arg;
-    } else {
-      Usage();
-      return 2;
-    }
-  }
-  if (a.seq.empty() || a.out.empty()) {
-    Usage();
-    return 2;
-  }
+  ArgParser p("ballvision calibrate omni", kUsage);
+  p.Positional("SEQ", a.seq)
+      .Text("--carpet", a.carpet_path)
+      .Text("--out", a.out)
+      .Required("--out")
+      .Text("--report", a.report)
+      .Custom(
+          "--viewpoint-z",
+          [&a](const std::string& v, std::string& error) {
+            if (ArgNumber("--viewpoint-z", v, 0.05, 5, a.f_o, error) && a.f_o > 0.05 && a.f_o < 5) {
+              return true;
+            }
+            error = "--viewpoint-z: got '" + v +
+                    "', expected the mirror viewpoint height in metres in (0.05, 5)";
+            return false;
+          })
+      .Required("--viewpoint-z");
+  if (const int rc = p.Parse(argc, argv); rc >= 0) return rc;
   if (a.carpet_path.empty()) a.carpet_path = (fs::path(a.seq) / "carpet.json").string();
-  if (!(a.f_o > 0.05 && a.f_o < 5)) {
-    std::fprintf(stderr,
-                 "calibrate omni: --viewpoint-z must be the mirror viewpoint height in "
-                 "metres (0.05..5)\n");
-    return 2;
-  }
   return -1;
 }
 

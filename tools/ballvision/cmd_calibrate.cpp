@@ -30,15 +30,13 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-void PerspUsage() {
-  std::fprintf(stderr,
-               "usage: ballvision calibrate persp (--images DIR | --corners corners.csv)\n"
-               "         [--board 9x6] [--square 0.07] [--skew] [--poses POSES.json]\n"
-               "         [--size 640x480] --out CALIB.json\n"
-               "  DIR: a folder of images (--prefix P: only names starting with P), or a\n"
-               "       sequence folder with frames.csv (persp_file column)\n"
-               "  corners.csv: image,corner,X,Y,u,v,in_image (board-plane X, Y)\n");
-}
+constexpr char kPerspUsage[] =
+    "usage: ballvision calibrate persp (--images DIR | --corners corners.csv)\n"
+    "         [--board 9x6] [--square 0.07] [--skew] [--poses POSES.json]\n"
+    "         [--size 640x480] --out CALIB.json\n"
+    "  DIR: a folder of images (--prefix P: only names starting with P), or a\n"
+    "       sequence folder with frames.csv (persp_file column)\n"
+    "  corners.csv: image,corner,X,Y,u,v,in_image (board-plane X, Y)\n";
 
 bool ParseDouble(const std::string& s, double& v) {
   char* end = nullptr;
@@ -263,65 +261,61 @@ bool LoadPoses(const std::string& path, const std::vector<ZhangView>& views,
   return true;
 }
 
-int CalibratePersp(int argc, char** argv) {
+struct PerspArgs {
   std::string images, corners, poses_path, out, prefix;
   int nx = 9, ny = 6, width = 640, height = 480;
   double square = 0.07;
   ZhangOptions opt;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto next = [&]() -> const char* { return i + 1 < argc ? argv[++i] : nullptr; };
-    const char* v = nullptr;
-    std::string e;
-    if (a == "--skew") {
-      opt.skew = true;
-    } else if (a == "--help" || a == "-h") {
-      PerspUsage();
-      return 0;
-    } else if ((v = next()) == nullptr) {
-      PerspUsage();
-      return 2;
-    } else if (a == "--images") {
-      images = v;
-    } else if (a == "--prefix") {
-      prefix = v;
-    } else if (a == "--corners") {
-      corners = v;
-    } else if (a == "--poses") {
-      poses_path = v;
-    } else if (a == "--out") {
-      out = v;
-    } else if (a == "--square") {
-      if (!ArgNumber(a, v, 1e-4, 10, square, e)) {
-        std::fprintf(stderr, "calibrate persp: %s (board square size in metres)\n", e.c_str());
-        return 2;
-      }
-    } else if (a == "--board") {
-      int64_t bx = 0, by = 0;
-      if (!ArgIntPair(a, v, 'x', 2, 100, bx, by, e)) {
-        std::fprintf(stderr, "calibrate persp: %s (NXxNY inner corners, e.g. 9x6)\n", e.c_str());
-        return 2;
-      }
-      nx = static_cast<int>(bx);
-      ny = static_cast<int>(by);
-    } else if (a == "--size") {
-      int64_t w = 0, h = 0;
-      if (!ArgIntPair(a, v, 'x', 16, 4096, w, h, e)) {
-        std::fprintf(stderr, "calibrate persp: %s (image size WxH in pixels)\n", e.c_str());
-        return 2;
-      }
-      width = static_cast<int>(w);
-      height = static_cast<int>(h);
-    } else {
-      std::fprintf(stderr, "calibrate persp: unknown option %s\n", a.c_str());
-      PerspUsage();
-      return 2;
+};
+
+// "AxB" integer pairs, with what they mean in the message.
+ArgParser::Handler IntPair(const char* name, int64_t lo, int64_t hi, const char* meaning, int& a,
+                           int& b) {
+  return [=, &a, &b](const std::string& v, std::string& error) {
+    int64_t x = 0, y = 0;
+    if (!ArgIntPair(name, v, 'x', lo, hi, x, y, error)) {
+      error += meaning;
+      return false;
     }
-  }
-  if (images.empty() == corners.empty() || out.empty() || !(square > 0)) {
-    PerspUsage();
-    return 2;
-  }
+    a = static_cast<int>(x);
+    b = static_cast<int>(y);
+    return true;
+  };
+}
+
+// Returns -1 to go on, else the exit code.
+int ParsePerspArgs(int argc, char** argv, PerspArgs& a) {
+  ArgParser p("ballvision calibrate persp", kPerspUsage);
+  p.Flag("--skew", a.opt.skew)
+      .Text("--images", a.images)
+      .Text("--prefix", a.prefix)
+      .Text("--corners", a.corners)
+      .Text("--poses", a.poses_path)
+      .Text("--out", a.out)
+      .Required("--out")
+      .Custom("--square",
+              [&a](const std::string& v, std::string& error) {
+                if (ArgNumber("--square", v, 1e-4, 10, a.square, error)) return true;
+                error += " (board square size in metres)";
+                return false;
+              })
+      .Custom("--board", IntPair("--board", 2, 100, " (NXxNY inner corners, e.g. 9x6)", a.nx, a.ny))
+      .Custom("--size",
+              IntPair("--size", 16, 4096, " (image size WxH in pixels)", a.width, a.height));
+  if (const int rc = p.Parse(argc, argv); rc >= 0) return rc;
+  if (a.images.empty() == a.corners.empty()) return p.UsageError("give --images or --corners");
+  return -1;
+}
+
+int CalibratePersp(int argc, char** argv) {
+  PerspArgs a;
+  if (const int rc = ParsePerspArgs(argc, argv, a); rc >= 0) return rc;
+  const std::string &images = a.images, &corners = a.corners, &poses_path = a.poses_path;
+  const std::string &out = a.out, &prefix = a.prefix;
+  const int nx = a.nx, ny = a.ny;
+  int &width = a.width, &height = a.height;  // from the images when detected
+  const double square = a.square;
+  const ZhangOptions& opt = a.opt;
   std::vector<ZhangView> views;
   std::string error;
   std::vector<BoardPose> checked;
@@ -424,16 +418,15 @@ int CmdCalibrate(int argc, char** argv) {
   // Ctrl-C: the steps stop at the next image; a calibration from part of the data is not
   // written (the file keeps its old content).
   InstallInterruptHandlers();
-  int rc = -1;
-  if (argc >= 2 && !std::strcmp(argv[1], "persp")) rc = CalibratePersp(argc - 1, argv + 1);
-  if (argc >= 2 && !std::strcmp(argv[1], "omni")) rc = CalibrateOmni(argc - 1, argv + 1);
-  if (rc >= 0 && InterruptSignal()) {
+  const int rc = RunSubCommand(
+      "ballvision calibrate",
+      "usage: ballvision calibrate persp|omni ... ('calibrate persp --help' for options)\n", argc,
+      argv, {{"persp", CalibratePersp}, {"omni", CalibrateOmni}});
+  if (InterruptSignal()) {
     ReportInterrupt("ballvision calibrate");
     return InterruptExitCode();
   }
-  if (rc >= 0) return rc;
-  std::fprintf(stderr, "usage: ballvision calibrate persp|omni ... (--help for options)\n");
-  return 2;
+  return rc;
 }
 
 }  // namespace bv::cli
