@@ -23,6 +23,7 @@
 #include "tools/ballvision/commands.h"
 #include "tools/ballvision/signals.h"
 #include "tools/ballvision/strict_json.h"
+#include "tools/ballvision/truth_csv.h"
 
 namespace bv::cli {
 namespace {
@@ -38,47 +39,20 @@ constexpr char kPerspUsage[] =
     "       sequence folder with frames.csv (persp_file column)\n"
     "  corners.csv: image,corner,X,Y,u,v,in_image (board-plane X, Y)\n";
 
-bool ParseDouble(const std::string& s, double& v) {
-  char* end = nullptr;
-  v = std::strtod(s.c_str(), &end);
-  return end != s.c_str() && *end == '\0' && std::isfinite(v);
-}
-
+// Through the strict CSV reader: a bad number or a short row is an error naming the line and
+// column; rows with in_image 0 are skipped.
 bool LoadCornersCsv(const std::string& path, std::vector<ZhangView>& views, std::string& error) {
-  std::ifstream f(path);
-  if (!f) {
-    error = "cannot open " + path;
-    return false;
-  }
-  std::string line;
-  std::getline(f, line);
-  const auto header = host::SplitCsvLine(line);
-  std::map<std::string, int> col;
-  for (size_t i = 0; i < header.size(); ++i) col[header[i]] = static_cast<int>(i);
-  for (const char* need : {"image", "X", "Y", "u", "v"}) {
-    if (!col.count(need)) {
-      error = path + ": column '" + need + "' missing";
-      return false;
-    }
-  }
+  TruthCsv csv;
+  if (!csv.Load(path, {"image", "X", "Y", "u", "v"}, error)) return false;
   std::map<std::string, size_t> index;
-  int line_no = 1;
-  while (std::getline(f, line)) {
-    ++line_no;
-    if (line.empty()) continue;
-    const auto c = host::SplitCsvLine(line);
-    if (c.size() < header.size()) {
-      error = path + ":" + std::to_string(line_no) + ": too few columns";
-      return false;
-    }
-    if (col.count("in_image") && c[col["in_image"]] == "0") continue;
+  for (size_t i = 0; i < csv.rows(); ++i) {
+    if (csv.Text(i, "in_image") == "0") continue;
     double X = 0, Y = 0, u = 0, v = 0;
-    if (!ParseDouble(c[col["X"]], X) || !ParseDouble(c[col["Y"]], Y) ||
-        !ParseDouble(c[col["u"]], u) || !ParseDouble(c[col["v"]], v)) {
-      error = path + ":" + std::to_string(line_no) + ": not a finite number";
+    if (!csv.Number(i, "X", X, false, error) || !csv.Number(i, "Y", Y, false, error) ||
+        !csv.Number(i, "u", u, false, error) || !csv.Number(i, "v", v, false, error)) {
       return false;
     }
-    const std::string& name = c[col["image"]];
+    const std::string& name = csv.Text(i, "image");
     if (!index.count(name)) {
       index[name] = views.size();
       views.push_back(ZhangView{name, {}, {}});
