@@ -219,18 +219,24 @@ bool ReadTruth(const std::string& path, std::map<uint64_t, Truth>& out, std::str
   return true;
 }
 
-// EvalGrid skips rows it cannot use; here every row must be usable, or the file is refused.
-bool CheckGridCsv(const std::string& path, std::string& error) {
+// The static grid's cells: index, distance_m, z_m (and bearing_deg, 0 when absent).
+struct GridRow {
+  int64_t index = 0;
+  double d_m = 0, z_m = 0, bearing_deg = 0;
+};
+// Strict: every row must be usable, or the file is refused.
+bool ReadGridCsv(const std::string& path, std::vector<GridRow>& rows, std::string& error) {
   TruthCsv csv;
   if (!csv.Load(path, {"index", "distance_m", "z_m"}, error)) return false;
   for (size_t i = 0; i < csv.rows(); ++i) {
-    int64_t idx = 0;
-    double v = 0;
-    if (!csv.Integer(i, "index", INT64_MIN, INT64_MAX, idx, error) ||
-        !csv.Number(i, "distance_m", v, false, error) || !csv.Number(i, "z_m", v, false, error) ||
-        !csv.Number(i, "bearing_deg", v, true, error)) {
+    GridRow r;
+    if (!csv.Integer(i, "index", INT64_MIN, INT64_MAX, r.index, error) ||
+        !csv.Number(i, "distance_m", r.d_m, false, error) ||
+        !csv.Number(i, "z_m", r.z_m, false, error) ||
+        !csv.Number(i, "bearing_deg", r.bearing_deg, true, error)) {
       return false;
     }
+    rows.push_back(r);
   }
   return true;
 }
@@ -324,7 +330,7 @@ Prediction SamplePrediction(const BallFilter& filter, uint64_t from_us, int step
 
 // Static grid: per distance x height the 3D error of the measurement (no filter, no ground
 // constraint) and of the omni-only "2D" estimate (paper Fig. 4).
-void EvalGrid(const Args& a, const CsvTable& grid, const std::vector<FrameRecord>& recs,
+void EvalGrid(const Args& a, const std::vector<GridRow>& grid, const std::vector<FrameRecord>& recs,
               const std::map<uint64_t, Truth>& truth) {
   std::map<int64_t, const FrameRecord*> by_index;
   for (const auto& r : recs) by_index[r.index] = &r;
@@ -332,12 +338,9 @@ void EvalGrid(const Args& a, const CsvTable& grid, const std::vector<FrameRecord
   std::printf("\n3D error of the per-frame measurement (paper Fig. 4), static_grid\n");
   std::printf("%6s %6s %6s | %9s %-5s | %9s | %7s\n", "dist_m", "h_m", "brg", "err3d_cm", "kind",
               "err2d_cm", "gap_cm");
-  for (const auto& row : grid.rows) {
-    double idx, d, h, brg = 0;
-    if (!Field(row, "index", idx) || !Field(row, "distance_m", d) || !Field(row, "z_m", h))
-      continue;
-    Field(row, "bearing_deg", brg);
-    auto it = by_index.find(static_cast<int64_t>(idx));
+  for (const GridRow& row : grid) {
+    const double d = row.d_m, h = row.z_m, brg = row.bearing_deg;
+    auto it = by_index.find(row.index);
     if (it == by_index.end()) continue;
     const FrameRecord& r = *it->second;
     const Truth* t = TruthAt(truth, r.state.t_us);
@@ -390,8 +393,8 @@ void EvalGrid(const Args& a, const CsvTable& grid, const std::vector<FrameRecord
 }
 
 // truth.csv, and grid.csv when the sequence is the static grid (`grid` left empty otherwise).
-bool LoadEvalTruth(const std::string& seq, std::map<uint64_t, Truth>& truth, CsvTable& grid,
-                   bool& is_grid) {
+bool LoadEvalTruth(const std::string& seq, std::map<uint64_t, Truth>& truth,
+                   std::vector<GridRow>& grid, bool& is_grid) {
   namespace fs = std::filesystem;
   std::string err;
   if (!ReadTruth((fs::path(seq) / "truth.csv").string(), truth, err)) {
@@ -400,7 +403,7 @@ bool LoadEvalTruth(const std::string& seq, std::map<uint64_t, Truth>& truth, Csv
   }
   const std::string grid_path = (fs::path(seq) / "grid.csv").string();
   is_grid = fs::exists(grid_path);
-  if (is_grid && !(CheckGridCsv(grid_path, err) && ReadCsv(grid_path, grid, err))) {
+  if (is_grid && !ReadGridCsv(grid_path, grid, err)) {
     std::fprintf(stderr, "ballvision eval: %s\n", err.c_str());
     return false;
   }
@@ -615,10 +618,10 @@ int CmdEval(int argc, char** argv) {
   PipelineOptions(p, a);
   p.Text("--plots", a.plots).Number("--at-ms", 0, 1e6, a.at_ms);
   if (const int rc = p.Parse(argc, argv); rc >= 0) return rc;
-  CsvTable grid_csv;
+  std::vector<GridRow> grid;
   std::map<uint64_t, Truth> truth;
   bool is_grid = false;
-  if (!LoadEvalTruth(a.seq, truth, grid_csv, is_grid)) return 1;
+  if (!LoadEvalTruth(a.seq, truth, grid, is_grid)) return 1;
   if (a.predict_ms < 0) a.predict_ms = 200;
   Setup s;
   if (!Prepare(a, "eval", s)) return 1;
@@ -658,7 +661,7 @@ int CmdEval(int argc, char** argv) {
   PrintOverall(a.seq, recs, truth);
   if (InterruptSignal()) ReportInterrupt("ballvision eval");
   if (is_grid) {
-    EvalGrid(a, grid_csv, recs, truth);
+    EvalGrid(a, grid, recs, truth);
     return InterruptSignal() ? InterruptExitCode() : 0;
   }
   const std::vector<double> bounces = ReadBounces(a.seq);
