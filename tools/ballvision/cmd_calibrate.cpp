@@ -5,7 +5,6 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <map>
 #include <sstream>
 #include <string>
@@ -88,22 +87,14 @@ bool DetectImages(const std::string& dir, const std::string& prefix, int nx, int
                   std::vector<ZhangView>& views, int& width, int& height, std::string& error) {
   std::vector<std::pair<std::string, std::string>> files;  // name, path
   if (fs::exists(fs::path(dir) / "frames.csv")) {
-    std::ifstream f(fs::path(dir) / "frames.csv");
-    std::string line;
-    std::getline(f, line);
-    const auto header = host::SplitCsvLine(line);
-    int pc = -1;
-    for (size_t i = 0; i < header.size(); ++i)
-      if (header[i] == "persp_file") pc = static_cast<int>(i);
-    if (pc < 0) {
-      error = dir + "/frames.csv has no persp_file column";
-      return false;
-    }
-    while (std::getline(f, line)) {
-      const auto c = host::SplitCsvLine(line);
-      if (static_cast<int>(c.size()) > pc && !c[pc].empty()) {
-        files.emplace_back(c[pc], (fs::path(dir) / c[pc]).string());
-      }
+    // Through the strict sequence reader; the view is named as in frames.csv.
+    host::Sequence seq;
+    if (!host::LoadSequence(dir, seq, error)) return false;
+    for (const host::SequenceEntry& e : seq.entries) {
+      if (e.persp_path.empty()) continue;
+      const bool relative = e.persp_path.rfind(dir + "/", 0) == 0;
+      files.emplace_back(relative ? e.persp_path.substr(dir.size() + 1) : e.persp_path,
+                         e.persp_path);
     }
   } else if (fs::is_directory(dir)) {
     for (const auto& e : fs::directory_iterator(dir)) {
