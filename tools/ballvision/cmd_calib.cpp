@@ -137,14 +137,13 @@ int Set(int argc, char** argv) {
       });
   if (const int rc = p.Parse(argc, argv); rc >= 0) return rc;
   if (lut_id < 0 && ball_radius_m < 0) return p.UsageError("nothing to set");
-  std::vector<uint8_t> bytes;
+  nlohmann::json j;
   std::string error;
-  if (!ReadFileBytes(path, bytes, error)) {
+  if (!ReadJsonFile(path, j, error)) {
     std::fprintf(stderr, "calib set: %s\n", error.c_str());
     return 1;
   }
-  nlohmann::json j = nlohmann::json::parse(bytes.begin(), bytes.end(), nullptr, false);
-  if (j.is_discarded() || !j.is_object()) {
+  if (!j.is_object()) {
     std::fprintf(stderr, "calib set: %s is not a JSON calibration\n", path.c_str());
     return 1;
   }

@@ -8,7 +8,6 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <map>
 #include <memory>
 #include <string>
@@ -27,6 +26,7 @@
 #include "tools/ballvision/safe_write.h"
 #include "tools/ballvision/signals.h"
 #include "tools/ballvision/states_csv.h"
+#include "tools/ballvision/strict_json.h"
 #include "tools/ballvision/truth_csv.h"
 
 namespace bv::cli {
@@ -490,18 +490,45 @@ void PrintOverall(const std::string& seq, const std::vector<FrameRecord>& recs,
   }
 }
 
-// Times of the floor contacts from the renderer's scene_extra.json (none when absent).
-std::vector<double> ReadBounces(const std::string& seq) {
-  std::vector<double> bounces;
-  std::ifstream f(std::filesystem::path(seq) / "scene_extra.json");
-  if (!f) return bounces;
-  try {
-    const auto j = nlohmann::json::parse(f);
-    if (j.contains("physics") && j["physics"].contains("bounces")) {
-      for (const auto& b : j["physics"]["bounces"]) bounces.push_back(b.at("t_s").get<double>());
+// physics.bounces[].t_s of the renderer's scene_extra.json; none when the file has none.
+bool ParseBounces(const nlohmann::json& j, const std::string& path, std::vector<double>& out,
+                  std::string& error) {
+  if (!j.is_object() || !j.contains("physics")) return true;
+  StrictObject physics(j.at("physics"), path, "physics");
+  const nlohmann::json* list = physics.IsObject() ? physics.Child("bounces", false) : nullptr;
+  if (!physics.error().empty()) {
+    error = physics.error();
+    return false;
+  }
+  if (!list) return true;
+  if (!list->is_array()) {
+    error = path + ": physics.bounces: expected an array";
+    return false;
+  }
+  for (size_t i = 0; i < list->size(); ++i) {
+    StrictObject b((*list)[i], path, "physics.bounces[" + std::to_string(i) + "]");
+    double t = 0;
+    if (!b.IsObject() || !b.Number("t_s", t, 0, 1e9)) {
+      error = b.error();
+      return false;
     }
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "scene_extra.json: %s (bounce table skipped)\n", e.what());
+    out.push_back(t);
+  }
+  return true;
+}
+
+// The floor contacts of a rendered sequence (none without scene_extra.json; a malformed file
+// skips the table with a message).
+std::vector<double> ReadBounces(const std::string& seq) {
+  const std::string path = (std::filesystem::path(seq) / "scene_extra.json").string();
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) return {};
+  nlohmann::json j;
+  std::string error;
+  std::vector<double> bounces;
+  if (!ReadJsonFile(path, j, error) || !ParseBounces(j, path, bounces, error)) {
+    std::fprintf(stderr, "%s (bounce table skipped)\n", error.c_str());
+    return {};
   }
   return bounces;
 }
