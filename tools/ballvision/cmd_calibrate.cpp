@@ -226,6 +226,42 @@ bool LoadPoses(const std::string& path, const std::vector<ZhangView>& views,
   return true;
 }
 
+bool CornersInImage(const std::vector<ZhangView>& views, int width, int height,
+                    std::string& error) {
+  for (const auto& v : views) {
+    for (size_t i = 0; i < v.image.size(); ++i) {
+      const Eigen::Vector2d& q = v.image[i];
+      if (!(q.x() >= -0.5 && q.x() <= width - 0.5 && q.y() >= -0.5 && q.y() <= height - 0.5)) {
+        char buf[256];
+        std::snprintf(buf, sizeof buf, "%s corner %zu at (%.2f, %.2f) is outside the %dx%d image",
+                      v.name.c_str(), i, q.x(), q.y(), width, height);
+        error = buf;
+        return false;
+      }
+    }
+  }
+  return true;
+}
+
+// Prints the result; returns the rms per image for the calibration file.
+json PrintZhangResult(const std::vector<ZhangView>& views, const ZhangResult& r, bool skew) {
+  std::printf(
+      "Zhang calibration, %zu views%s (closed form: fx %.2f fy %.2f cx %.2f cy %.2f "
+      "skew %.4f; LM %d iterations)\n",
+      views.size(), skew ? ", with skew" : "", r.init_fx, r.init_fy, r.init_cx, r.init_cy,
+      r.init_skew, r.iterations);
+  json per_image = json::object();
+  for (size_t i = 0; i < views.size(); ++i) {
+    std::printf("  %-28s %3zu corners  rms %.4f px\n", views[i].name.c_str(), views[i].image.size(),
+                r.rms_per_view_px[i]);
+    per_image[views[i].name] = r.rms_per_view_px[i];
+  }
+  std::printf("fx %.4f fy %.4f cx %.4f cy %.4f skew %.5f k1 %.6f k2 %.6f\n", r.fx, r.fy, r.cx, r.cy,
+              r.skew, r.k1, r.k2);
+  std::printf("overall reprojection rms %.4f px\n", r.rms_px);
+  return per_image;
+}
+
 struct PerspArgs {
   std::string images, corners, poses_path, out, prefix;
   int nx = 9, ny = 6, width = 640, height = 480;
@@ -295,37 +331,12 @@ int CalibratePersp(int argc, char** argv) {
     std::fprintf(stderr, "calibrate persp: %s; no calibration written\n", error.c_str());
     return 1;
   }
-  for (const auto& v : views) {
-    for (size_t i = 0; i < v.image.size(); ++i) {
-      const Eigen::Vector2d& q = v.image[i];
-      if (!(q.x() >= -0.5 && q.x() <= width - 0.5 && q.y() >= -0.5 && q.y() <= height - 0.5)) {
-        std::fprintf(stderr,
-                     "calibrate persp: %s corner %zu at (%.2f, %.2f) is outside the %dx%d "
-                     "image; no calibration written\n",
-                     v.name.c_str(), i, q.x(), q.y(), width, height);
-        return 1;
-      }
-    }
-  }
   ZhangResult r;
-  if (!ZhangCalibrate(views, opt, r, error)) {
+  if (!CornersInImage(views, width, height, error) || !ZhangCalibrate(views, opt, r, error)) {
     std::fprintf(stderr, "calibrate persp: %s; no calibration written\n", error.c_str());
     return 1;
   }
-  std::printf(
-      "Zhang calibration, %zu views%s (closed form: fx %.2f fy %.2f cx %.2f cy %.2f "
-      "skew %.4f; LM %d iterations)\n",
-      views.size(), opt.skew ? ", with skew" : "", r.init_fx, r.init_fy, r.init_cx, r.init_cy,
-      r.init_skew, r.iterations);
-  json per_image = json::object();
-  for (size_t i = 0; i < views.size(); ++i) {
-    std::printf("  %-28s %3zu corners  rms %.4f px\n", views[i].name.c_str(), views[i].image.size(),
-                r.rms_per_view_px[i]);
-    per_image[views[i].name] = r.rms_per_view_px[i];
-  }
-  std::printf("fx %.4f fy %.4f cx %.4f cy %.4f skew %.5f k1 %.6f k2 %.6f\n", r.fx, r.fy, r.cx, r.cy,
-              r.skew, r.k1, r.k2);
-  std::printf("overall reprojection rms %.4f px\n", r.rms_px);
+  const json per_image = PrintZhangResult(views, r, opt.skew);
 
   PerspCalibration p;
   p.valid = true;
