@@ -282,6 +282,75 @@ class Sequences(Base):
                 self.refused(args, 2, msg)
 
 
+# Every command and sub-command answers --help the same way (issue 14): usage on stdout, exit
+# 0, nothing on stderr; a bad option exits 2 with the message and the usage on stderr.
+SUBCOMMANDS = {"lut": ["train", "eval", "show"], "calibrate": ["persp", "omni"],
+               "calib": ["to-blob", "to-json", "show", "set"], "seq": ["info", "to-raw"]}
+
+
+class Help(Base):
+    def commands(self):
+        """The top-level commands, from `ballvision --help` (so a new one is checked too)."""
+        r = self.bv("--help")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        names = [line.split()[0] for line in r.stdout.split("commands:\n")[1].splitlines()
+                 if line.startswith("  ")]
+        self.assertIn("run", names)
+        out = []
+        for name in names:
+            out.append([name])
+            out += [[name, sub] for sub in SUBCOMMANDS.get(name, [])]
+        return out
+
+    def test_help_everywhere(self):
+        for cmd in [[]] + self.commands():
+            for flag in ("--help", "-h"):
+                with self.subTest(cmd=cmd, flag=flag):
+                    r = self.bv(*cmd, flag)
+                    self.assertEqual(r.returncode, 0, r.stderr)
+                    self.assertTrue(r.stdout.startswith("usage: ballvision"), r.stdout)
+                    self.assertEqual(r.stderr, "")
+
+    def test_help_after_other_arguments_and_as_a_value(self):
+        # Once taken as the value of --out / opened as a file named "--help".
+        for cmd in (["lut", "train", "--out", "--help"], ["lut", "show", "--help"],
+                    ["run", "SEQ", "--calib", "--help"], ["listen", "x", "--csv", "--help"]):
+            with self.subTest(cmd=cmd):
+                r = self.bv(*cmd)
+                self.assertEqual(r.returncode, 0, r.stderr)
+                self.assertTrue(r.stdout.startswith("usage: ballvision"), r.stdout)
+
+    def test_bad_option_is_a_usage_error(self):
+        for cmd in self.commands():
+            with self.subTest(cmd=cmd):
+                r = self.bv(*cmd, "--no-such-option", "1")
+                self.assertEqual(r.returncode, 2, r.stdout + r.stderr)
+                self.assertIn("--no-such-option", r.stderr)
+                self.assertIn("usage: ballvision", r.stderr)
+                self.assertEqual(r.stdout, "")
+
+    def test_an_option_is_not_a_value(self):
+        s = self.seq()
+        for args, msg in ((["run", s, "--calib", "--out", "x"], "--calib needs a value"),
+                          (["lut", "train", "--out", "--sim", s], "--out needs a value"),
+                          (["seq", "to-raw", s, self.d, "--first", "--count"],
+                           "--first needs a value")):
+            with self.subTest(args=args):
+                r = self.refused(args, 2, msg)
+                self.assertIn("usage: ballvision", r.stderr)
+
+    def test_no_silent_clamping_or_truncation(self):
+        s = self.seq()
+        for args, msg in ((["demo", "--frames", "3", "--out", self.d],
+                           "--frames: got '3', expected an integer in [10, "),
+                          (["run", s, "--calib", REF, "--predict-ms", "200.5"],
+                           "--predict-ms: got '200.5', expected an integer"),
+                          (["eval", s, "--calib", REF, "--bounce-factor", "1"],
+                           "--bounce-factor: got '1', expected a number in (0, 1)")):
+            with self.subTest(args=args):
+                self.refused(args, 2, msg)
+
+
 def frames(n):
     sys.path.insert(0, PYLINK)
     from ballvision_link.protocol import encode_frame, cobs_decode

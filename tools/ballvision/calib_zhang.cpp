@@ -147,14 +147,15 @@ bool ZhangProject(const ZhangResult& m, const Matrix3d& R, const Vector3d& t, co
   return true;
 }
 
-bool ZhangCalibrate(const std::vector<ZhangView>& views, const ZhangOptions& options,
-                    ZhangResult& result, std::string& error) {
+namespace zhang {
+
+bool CheckViews(const std::vector<ZhangView>& views, size_t& total, std::string& error) {
   const size_t nv = views.size();
   if (nv < 3) {
     error = "need at least 3 views of the board, got " + std::to_string(nv);
     return false;
   }
-  size_t total = 0;
+  total = 0;
   for (const auto& v : views) {
     if (v.board.size() != v.image.size() || v.board.size() < 6) {
       error = "view " + v.name + ": need at least 6 corners (got " +
@@ -169,23 +170,33 @@ bool ZhangCalibrate(const std::vector<ZhangView>& views, const ZhangOptions& opt
     }
     total += v.board.size();
   }
-  // 1. homographies
-  std::vector<Matrix3d> Hs(nv);
-  for (size_t i = 0; i < nv; ++i) {
+  return true;
+}
+
+bool Homographies(const std::vector<ZhangView>& views, std::vector<Matrix3d>& Hs,
+                  std::string& error) {
+  Hs.resize(views.size());
+  for (size_t i = 0; i < views.size(); ++i) {
     if (!Homography(views[i], Hs[i])) {
       error = "view " + views[i].name + ": homography failed (collinear corners?)";
       return false;
     }
   }
-  // 2. closed-form intrinsics: V b = 0 (b = B11 B12 B22 B13 B23 B33).
-  const int extra = options.skew ? 0 : 1;
+  return true;
+}
+
+// V b = 0 (b = B11 B12 B22 B13 B23 B33), B = A^-T A^-1 the image of the absolute conic.
+bool ClosedFormIntrinsics(const std::vector<Matrix3d>& Hs, bool skew, Intrinsics& out,
+                          std::string& error) {
+  const size_t nv = Hs.size();
+  const int extra = skew ? 0 : 1;
   MatrixXd V(2 * nv + extra, 6);
   for (size_t i = 0; i < nv; ++i) {
     // Scale rows for conditioning; the constraints are homogeneous.
     V.row(2 * i) = Vij(Hs[i], 0, 1);
     V.row(2 * i + 1) = Vij(Hs[i], 0, 0) - Vij(Hs[i], 1, 1);
   }
-  if (!options.skew) {
+  if (!skew) {
     V.row(2 * nv) << 0, 1, 0, 0, 0, 0;
     V.row(2 * nv) *= V.topRows(2 * nv).norm();
   }
@@ -209,68 +220,73 @@ bool ZhangCalibrate(const std::vector<ZhangView>& views, const ZhangOptions& opt
     error = "degenerate set of board poses: closed-form focal length imaginary";
     return false;
   }
-  const double alpha = std::sqrt(lambda / B11);
-  const double beta = std::sqrt(lambda * B11 / den);
-  const double gamma = options.skew ? -B12 * alpha * alpha * beta / lambda : 0.0;
-  const double u0 = gamma * v0 / beta - B13 * alpha * alpha / lambda;
-  ZhangResult m;
-  m.fx = alpha;
-  m.fy = beta;
-  m.skew = gamma;
-  m.cx = u0;
-  m.cy = v0;
-  m.init_fx = alpha;
-  m.init_fy = beta;
-  m.init_skew = gamma;
-  m.init_cx = u0;
-  m.init_cy = v0;
-  if (!std::isfinite(alpha) || !std::isfinite(beta) || !std::isfinite(u0) || !std::isfinite(v0)) {
+  out.fx = std::sqrt(lambda / B11);
+  out.fy = std::sqrt(lambda * B11 / den);
+  out.skew = skew ? -B12 * out.fx * out.fx * out.fy / lambda : 0.0;
+  out.cx = out.skew * v0 / out.fy - B13 * out.fx * out.fx / lambda;
+  out.cy = v0;
+  if (!std::isfinite(out.fx) || !std::isfinite(out.fy) || !std::isfinite(out.cx) ||
+      !std::isfinite(out.cy)) {
     error = "closed-form intrinsics not finite";
     return false;
   }
-  // 3. extrinsics
+  return true;
+}
+
+void Extrinsics(const std::vector<Matrix3d>& Hs, const Intrinsics& in, std::vector<Matrix3d>& R,
+                std::vector<Vector3d>& t) {
   Matrix3d A;
-  A << alpha, gamma, u0, 0, beta, v0, 0, 0, 1;
+  A << in.fx, in.skew, in.cx, 0, in.fy, in.cy, 0, 0, 1;
   const Matrix3d Ainv = A.inverse();
-  m.R.resize(nv);
-  m.t.resize(nv);
-  for (size_t i = 0; i < nv; ++i) {
+  R.resize(Hs.size());
+  t.resize(Hs.size());
+  for (size_t i = 0; i < Hs.size(); ++i) {
     const Vector3d h1 = Hs[i].col(0), h2 = Hs[i].col(1), h3 = Hs[i].col(2);
     double lam = 1.0 / (Ainv * h1).norm();
-    Vector3d t = lam * Ainv * h3;
-    if (t.z() < 0) {
+    Vector3d ti = lam * Ainv * h3;
+    if (ti.z() < 0) {  // the board in front of the camera
       lam = -lam;
-      t = -t;
+      ti = -ti;
     }
     const Vector3d r1 = lam * Ainv * h1, r2 = lam * Ainv * h2;
     Matrix3d Q;
     Q << r1, r2, r1.cross(r2);
-    m.R[i] = NearestRotation(Q);
-    m.t[i] = t;
+    R[i] = NearestRotation(Q);
+    t[i] = ti;
   }
-  // 4. linear radial distortion: D [k1 k2]' = d.
-  {
-    MatrixXd D(2 * total, 2);
-    VectorXd d(2 * total);
-    size_t row = 0;
-    for (size_t i = 0; i < nv; ++i) {
-      for (size_t k = 0; k < views[i].board.size(); ++k) {
-        const Vector3d pc =
-            m.R[i] * Vector3d(views[i].board[k].x(), views[i].board[k].y(), 0) + m.t[i];
-        const double x = pc.x() / pc.z(), y = pc.y() / pc.z();
-        const double r2 = x * x + y * y;
-        const double u = alpha * x + gamma * y + u0, v = beta * y + v0;
-        D.row(row) << (u - u0) * r2, (u - u0) * r2 * r2;
-        d[row++] = views[i].image[k].x() - u;
-        D.row(row) << (v - v0) * r2, (v - v0) * r2 * r2;
-        d[row++] = views[i].image[k].y() - v;
-      }
+}
+
+// D [k1 k2]' = d over every corner; a non-finite coefficient (degenerate data) reads 0.
+Eigen::Vector2d LinearDistortion(const std::vector<ZhangView>& views, const Intrinsics& in,
+                                 const std::vector<Matrix3d>& R, const std::vector<Vector3d>& t) {
+  size_t total = 0;
+  for (const auto& v : views) total += v.board.size();
+  MatrixXd D(2 * total, 2);
+  VectorXd d(2 * total);
+  size_t row = 0;
+  const double alpha = in.fx, beta = in.fy, gamma = in.skew, u0 = in.cx, v0 = in.cy;
+  for (size_t i = 0; i < views.size(); ++i) {
+    for (size_t k = 0; k < views[i].board.size(); ++k) {
+      const Vector3d pc = R[i] * Vector3d(views[i].board[k].x(), views[i].board[k].y(), 0) + t[i];
+      const double x = pc.x() / pc.z(), y = pc.y() / pc.z();
+      const double r2 = x * x + y * y;
+      const double u = alpha * x + gamma * y + u0, v = beta * y + v0;
+      D.row(row) << (u - u0) * r2, (u - u0) * r2 * r2;
+      d[row++] = views[i].image[k].x() - u;
+      D.row(row) << (v - v0) * r2, (v - v0) * r2 * r2;
+      d[row++] = views[i].image[k].y() - v;
     }
-    const Eigen::Vector2d k = D.colPivHouseholderQr().solve(d);
-    m.k1 = std::isfinite(k[0]) ? k[0] : 0;
-    m.k2 = std::isfinite(k[1]) ? k[1] : 0;
   }
-  // 5. LM over intrinsics (4 or 5), k1, k2 and 6 per view.
+  const Eigen::Vector2d k = D.colPivHouseholderQr().solve(d);
+  return {std::isfinite(k[0]) ? k[0] : 0, std::isfinite(k[1]) ? k[1] : 0};
+}
+
+// Parameters: fx fy cx cy k1 k2 [skew], then per view the rotation vector and t.
+bool Refine(const std::vector<ZhangView>& views, const ZhangOptions& options, ZhangResult& m,
+            std::string& error) {
+  const size_t nv = views.size();
+  size_t total = 0;
+  for (const auto& v : views) total += v.board.size();
   const int ni = options.skew ? 7 : 6;
   VectorXd x(ni + 6 * nv);
   x[0] = m.fx;
@@ -327,6 +343,31 @@ bool ZhangCalibrate(const std::vector<ZhangView>& views, const ZhangOptions& opt
     row += 2 * n;
   }
   m.rms_px = std::sqrt(r.squaredNorm() / static_cast<double>(total));
+  return true;
+}
+
+}  // namespace zhang
+
+bool ZhangCalibrate(const std::vector<ZhangView>& views, const ZhangOptions& options,
+                    ZhangResult& result, std::string& error) {
+  size_t total = 0;
+  std::vector<Matrix3d> Hs;
+  zhang::Intrinsics in;
+  if (!zhang::CheckViews(views, total, error) || !zhang::Homographies(views, Hs, error) ||
+      !zhang::ClosedFormIntrinsics(Hs, options.skew, in, error)) {
+    return false;
+  }
+  ZhangResult m;
+  m.fx = m.init_fx = in.fx;
+  m.fy = m.init_fy = in.fy;
+  m.skew = m.init_skew = in.skew;
+  m.cx = m.init_cx = in.cx;
+  m.cy = m.init_cy = in.cy;
+  zhang::Extrinsics(Hs, in, m.R, m.t);
+  const Eigen::Vector2d k = zhang::LinearDistortion(views, in, m.R, m.t);
+  m.k1 = k[0];
+  m.k2 = k[1];
+  if (!zhang::Refine(views, options, m, error)) return false;
   result = m;
   return true;
 }

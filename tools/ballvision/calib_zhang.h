@@ -42,6 +42,31 @@ bool ZhangProject(const ZhangResult& m, const Eigen::Matrix3d& R, const Eigen::V
 bool ZhangCalibrate(const std::vector<ZhangView>& views, const ZhangOptions& options,
                     ZhangResult& result, std::string& error);
 
+/// The steps of ZhangCalibrate, in order (each tested on its own in calib_zhang_steps_test.cpp).
+namespace zhang {
+/// At least 3 views of at least 6 finite corners each; `total` counts the corners.
+bool CheckViews(const std::vector<ZhangView>& views, size_t& total, std::string& error);
+/// 1. Board -> image homography per view (normalised DLT), scaled to H(2,2) = 1.
+bool Homographies(const std::vector<ZhangView>& views, std::vector<Eigen::Matrix3d>& Hs,
+                  std::string& error);
+/// 2. Closed-form intrinsics from the absolute-conic constraints (skew 0 unless `skew`).
+struct Intrinsics {
+  double fx = 0, fy = 0, cx = 0, cy = 0, skew = 0;
+};
+bool ClosedFormIntrinsics(const std::vector<Eigen::Matrix3d>& Hs, bool skew, Intrinsics& out,
+                          std::string& error);
+/// 3. Per view p_cam = R p_board + t (board in front of the camera, R the nearest rotation).
+void Extrinsics(const std::vector<Eigen::Matrix3d>& Hs, const Intrinsics& in,
+                std::vector<Eigen::Matrix3d>& R, std::vector<Eigen::Vector3d>& t);
+/// 4. k1, k2 by linear least squares with the poses and intrinsics fixed.
+Eigen::Vector2d LinearDistortion(const std::vector<ZhangView>& views, const Intrinsics& in,
+                                 const std::vector<Eigen::Matrix3d>& R,
+                                 const std::vector<Eigen::Vector3d>& t);
+/// 5. Levenberg-Marquardt over everything from `m` (intrinsics, k1, k2, R, t); fills the rms.
+bool Refine(const std::vector<ZhangView>& views, const ZhangOptions& options, ZhangResult& m,
+            std::string& error);
+}  // namespace zhang
+
 /// The rig pose of the camera (p_robot = R_rc p_cam + t_rc) from views whose board pose in the
 /// robot frame is known (p_robot = Rb p_board + tb): closed-form average, then LM on the
 /// reprojection error of those views with the intrinsics fixed.

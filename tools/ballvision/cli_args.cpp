@@ -1,7 +1,9 @@
 #include "tools/ballvision/cli_args.h"
 
+#include <cctype>
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <sstream>
 
@@ -71,6 +73,124 @@ bool ArgIntPair(const std::string& option, const std::string& text, char sep, in
   }
   return ArgInt(option, text.substr(0, p), lo, hi, a, error) &&
          ArgInt(option, text.substr(p + 1), lo, hi, b, error);
+}
+
+ArgParser::ArgParser(std::string command, std::string usage)
+    : command_(std::move(command)), usage_(std::move(usage)) {}
+
+ArgParser& ArgParser::Flag(const std::string& name, bool& out) {
+  return FlagAction(name, [&out] { out = true; });
+}
+
+ArgParser& ArgParser::FlagAction(const std::string& name, std::function<void()> action) {
+  Option o;
+  o.name = name;
+  o.takes_value = false;
+  o.action = std::move(action);
+  options_.push_back(std::move(o));
+  return *this;
+}
+
+ArgParser& ArgParser::Text(const std::string& name, std::string& out) {
+  return Custom(name, [&out](const std::string& v, std::string&) {
+    out = v;
+    return true;
+  });
+}
+
+ArgParser& ArgParser::Custom(const std::string& name, Handler handler) {
+  Option o;
+  o.name = name;
+  o.handler = std::move(handler);
+  options_.push_back(std::move(o));
+  return *this;
+}
+
+ArgParser& ArgParser::Positional(const std::string& name, std::string& out, bool required) {
+  positionals_.push_back({name, &out, required});
+  return *this;
+}
+
+ArgParser& ArgParser::Required(const std::string& name) {
+  if (Option* o = Find(name)) o->required = true;
+  return *this;
+}
+
+ArgParser::Option* ArgParser::Find(const std::string& name) {
+  for (Option& o : options_) {
+    if (o.name == name) return &o;
+  }
+  return nullptr;
+}
+
+namespace {
+
+bool IsHelp(const std::string& a) { return a == "--help" || a == "-h"; }
+
+// "-" (standard input/output) and "-5", "-.5" (numbers) are values; "--x" and "-x" options.
+bool LooksLikeOption(const std::string& a) {
+  return a.size() > 1 && a[0] == '-' && !std::isdigit(static_cast<unsigned char>(a[1])) &&
+         a[1] != '.';
+}
+
+}  // namespace
+
+int ArgParser::Parse(int argc, char** argv, int first) {
+  for (int i = first; i < argc; ++i) {
+    if (IsHelp(argv[i])) return Help();
+  }
+  size_t next_positional = 0;
+  for (int i = first; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (!LooksLikeOption(a)) {
+      if (next_positional >= positionals_.size()) {
+        return UsageError("unexpected argument '" + a + "'");
+      }
+      *positionals_[next_positional++].out = a;
+      continue;
+    }
+    Option* o = Find(a);
+    if (!o) return UsageError("unknown option " + a);
+    o->seen = true;
+    if (!o->takes_value) {
+      o->action();
+      continue;
+    }
+    if (i + 1 >= argc) return UsageError(a + " needs a value");
+    const std::string v = argv[++i];
+    if (LooksLikeOption(v)) return UsageError(a + " needs a value, got the option " + v);
+    std::string error;
+    if (!o->handler(v, error)) return UsageError(error);
+  }
+  for (size_t p = next_positional; p < positionals_.size(); ++p) {
+    if (positionals_[p].required) return UsageError("missing " + positionals_[p].name);
+  }
+  for (const Option& o : options_) {
+    if (o.required && !o.seen) return UsageError("missing " + o.name);
+  }
+  return -1;
+}
+
+int ArgParser::UsageError(const std::string& error) const {
+  std::fprintf(stderr, "%s: %s\n\n%s", command_.c_str(), error.c_str(), usage_.c_str());
+  return 2;
+}
+
+int ArgParser::Help() const {
+  std::fputs(usage_.c_str(), stdout);
+  return 0;
+}
+
+int RunSubCommand(const std::string& command, const std::string& usage, int argc, char** argv,
+                  const std::vector<SubCommand>& subs) {
+  ArgParser p(command, usage);
+  if (argc < 2) return p.UsageError("missing sub-command");
+  const std::string sub = argv[1];
+  if (IsHelp(sub)) return p.Help();
+  for (const SubCommand& s : subs) {
+    if (sub == s.name) return s.run(argc - 1, argv + 1);
+  }
+  return p.UsageError("unknown sub-command '" + sub + "'");
 }
 
 }  // namespace bv::cli

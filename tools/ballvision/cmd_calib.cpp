@@ -13,13 +13,11 @@
 namespace bv::cli {
 namespace {
 
-void Usage() {
-  std::fprintf(stderr,
-               "usage: ballvision calib to-blob CALIB(.json|.bin) OUT.bin\n"
-               "       ballvision calib to-json CALIB(.json|.bin) OUT.json\n"
-               "       ballvision calib show CALIB(.json|.bin)\n"
-               "       ballvision calib set CALIB.json [--lut-id N] [--ball-radius M]\n");
-}
+constexpr char kUsage[] =
+    "usage: ballvision calib to-blob CALIB(.json|.bin) OUT.bin\n"
+    "       ballvision calib to-json CALIB(.json|.bin) OUT.json\n"
+    "       ballvision calib show CALIB(.json|.bin)\n"
+    "       ballvision calib set CALIB.json [--lut-id N] [--ball-radius M]\n";
 
 void Show(const RigCalibration& c) {
   std::printf("calibration_id 0x%08x  lut_id 0x%08x  ball_radius_m %.4f\n", c.calibration_id,
@@ -63,104 +61,116 @@ void Show(const RigCalibration& c) {
   }
 }
 
+int ShowFile(int argc, char** argv) {
+  std::string in;
+  ArgParser p("ballvision calib show", kUsage);
+  p.Positional("CALIB", in);
+  if (const int rc = p.Parse(argc, argv); rc >= 0) return rc;
+  RigCalibration cal;
+  std::string error;
+  if (!LoadCalibrationFile(in, cal, error)) {
+    std::fprintf(stderr, "calib show: %s\n", error.c_str());
+    return 1;
+  }
+  Show(cal);
+  return 0;
+}
+
+// to-blob and to-json.
+int Convert(int argc, char** argv) {
+  const std::string sub = argv[0];
+  std::string in, out;
+  ArgParser p("ballvision calib " + sub, kUsage);
+  p.Positional("CALIB", in).Positional("OUT", out);
+  if (const int rc = p.Parse(argc, argv); rc >= 0) return rc;
+  RigCalibration cal;
+  std::string error;
+  if (!LoadCalibrationFile(in, cal, error)) {
+    std::fprintf(stderr, "calib %s: %s\n", sub.c_str(), error.c_str());
+    return 1;
+  }
+  if (sub == "to-blob") {
+    std::vector<uint8_t> blob;
+    if (!CalibrationToBlob(cal, blob, error) || !WriteFileBytes(out, blob, error)) {
+      std::fprintf(stderr, "calib to-blob: %s\n", error.c_str());
+      return 1;
+    }
+    std::printf("wrote %s (%zu bytes, calibration_id 0x%08x)\n", out.c_str(), blob.size(),
+                cal.calibration_id);
+  } else {
+    if (!SaveCalibrationJson(out, cal, error)) {
+      std::fprintf(stderr, "calib to-json: %s\n", error.c_str());
+      return 1;
+    }
+    std::printf("wrote %s\n", out.c_str());
+  }
+  return 0;
+}
+
+// "N" or "0xHEX", 32 bits.
+bool LutId(const std::string& text, int64_t& v, std::string& error) {
+  const bool hex = text.rfind("0x", 0) == 0 || text.rfind("0X", 0) == 0;
+  char* end = nullptr;
+  if (hex) v = static_cast<int64_t>(std::strtoull(text.c_str() + 2, &end, 16));
+  std::string e;
+  if (hex ? (text.size() < 3 || text.size() > 10 || *end != '\0')
+          : !ArgInt("--lut-id", text, 0, 0xFFFFFFFFll, v, e)) {
+    error = "--lut-id: got '" + text + "', expected a 32-bit id (decimal or 0x hex)";
+    return false;
+  }
+  return true;
+}
+
+// Rig constants outside the camera sections; the file is validated before it is written.
+int Set(int argc, char** argv) {
+  std::string path;
+  int64_t lut_id = -1;
+  double ball_radius_m = -1;
+  ArgParser p("ballvision calib set", kUsage);
+  p.Positional("CALIB", path)
+      .Custom("--lut-id", [&lut_id](const std::string& v,
+                                    std::string& error) { return LutId(v, lut_id, error); })
+      .Custom("--ball-radius", [&ball_radius_m](const std::string& v, std::string& error) {
+        if (ArgNumber("--ball-radius", v, 0.01, 1.0, ball_radius_m, error)) return true;
+        error += " (metres)";
+        return false;
+      });
+  if (const int rc = p.Parse(argc, argv); rc >= 0) return rc;
+  if (lut_id < 0 && ball_radius_m < 0) return p.UsageError("nothing to set");
+  nlohmann::json j;
+  std::string error;
+  if (!ReadJsonFile(path, j, error)) {
+    std::fprintf(stderr, "calib set: %s\n", error.c_str());
+    return 1;
+  }
+  if (!j.is_object()) {
+    std::fprintf(stderr, "calib set: %s is not a JSON calibration\n", path.c_str());
+    return 1;
+  }
+  if (lut_id >= 0) j["lut_id"] = static_cast<uint32_t>(lut_id);
+  if (ball_radius_m >= 0) j["ball_radius_m"] = ball_radius_m;
+  RigCalibration cal;
+  if (!CalibrationFromJson(j, cal, error, path)) {
+    std::fprintf(stderr, "calib set: not written: %s\n", error.c_str());
+    return 1;
+  }
+  cal.calibration_id = ComputeCalibrationId(cal);
+  j["calibration_id"] = cal.calibration_id;
+  const std::string text = j.dump(1) + "\n";
+  if (!WriteFileBytes(path, std::vector<uint8_t>(text.begin(), text.end()), error)) {
+    std::fprintf(stderr, "calib set: %s\n", error.c_str());
+    return 1;
+  }
+  Show(cal);
+  return 0;
+}
+
 }  // namespace
 
 int CmdCalib(int argc, char** argv) {
-  if (argc < 3) {
-    Usage();
-    return 2;
-  }
-  const std::string sub = argv[1];
-  RigCalibration cal;
-  std::string error;
-  if (sub == "show" && argc == 3) {
-    if (!LoadCalibrationFile(argv[2], cal, error)) {
-      std::fprintf(stderr, "calib show: %s\n", error.c_str());
-      return 1;
-    }
-    Show(cal);
-    return 0;
-  }
-  if ((sub == "to-blob" || sub == "to-json") && argc == 4) {
-    if (!LoadCalibrationFile(argv[2], cal, error)) {
-      std::fprintf(stderr, "calib %s: %s\n", sub.c_str(), error.c_str());
-      return 1;
-    }
-    if (sub == "to-blob") {
-      std::vector<uint8_t> blob;
-      if (!CalibrationToBlob(cal, blob, error) || !WriteFileBytes(argv[3], blob, error)) {
-        std::fprintf(stderr, "calib to-blob: %s\n", error.c_str());
-        return 1;
-      }
-      std::printf("wrote %s (%zu bytes, calibration_id 0x%08x)\n", argv[3], blob.size(),
-                  cal.calibration_id);
-    } else {
-      if (!SaveCalibrationJson(argv[3], cal, error)) {
-        std::fprintf(stderr, "calib to-json: %s\n", error.c_str());
-        return 1;
-      }
-      std::printf("wrote %s\n", argv[3]);
-    }
-    return 0;
-  }
-  if (sub == "set" && argc >= 5 && (argc - 3) % 2 == 0) {
-    // Rig constants outside the camera sections; the file is validated before it is written.
-    std::vector<uint8_t> bytes;
-    if (!ReadFileBytes(argv[2], bytes, error)) {
-      std::fprintf(stderr, "calib set: %s\n", error.c_str());
-      return 1;
-    }
-    nlohmann::json j = nlohmann::json::parse(bytes.begin(), bytes.end(), nullptr, false);
-    if (j.is_discarded() || !j.is_object()) {
-      std::fprintf(stderr, "calib set: %s is not a JSON calibration\n", argv[2]);
-      return 1;
-    }
-    for (int i = 3; i + 1 < argc; i += 2) {
-      const std::string key = argv[i];
-      std::string e;
-      if (key == "--lut-id") {
-        int64_t v = 0;
-        const std::string text = argv[i + 1];
-        const bool hex = text.rfind("0x", 0) == 0 || text.rfind("0X", 0) == 0;
-        char* end = nullptr;
-        if (hex) v = static_cast<int64_t>(std::strtoull(text.c_str() + 2, &end, 16));
-        if (hex ? (text.size() < 3 || text.size() > 10 || *end != '\0')
-                : !ArgInt(key, text, 0, 0xFFFFFFFFll, v, e)) {
-          std::fprintf(stderr,
-                       "calib set: --lut-id: got '%s', expected a 32-bit id (decimal "
-                       "or 0x hex)\n",
-                       text.c_str());
-          return 2;
-        }
-        j["lut_id"] = static_cast<uint32_t>(v);
-      } else if (key == "--ball-radius") {
-        double v = 0;
-        if (!ArgNumber(key, argv[i + 1], 0.01, 1.0, v, e)) {
-          std::fprintf(stderr, "calib set: %s (metres)\n", e.c_str());
-          return 2;
-        }
-        j["ball_radius_m"] = v;
-      } else {
-        Usage();
-        return 2;
-      }
-    }
-    if (!CalibrationFromJson(j, cal, error, argv[2])) {
-      std::fprintf(stderr, "calib set: not written: %s\n", error.c_str());
-      return 1;
-    }
-    cal.calibration_id = ComputeCalibrationId(cal);
-    j["calibration_id"] = cal.calibration_id;
-    const std::string text = j.dump(1) + "\n";
-    if (!WriteFileBytes(argv[2], std::vector<uint8_t>(text.begin(), text.end()), error)) {
-      std::fprintf(stderr, "calib set: %s\n", error.c_str());
-      return 1;
-    }
-    Show(cal);
-    return 0;
-  }
-  Usage();
-  return 2;
+  return RunSubCommand(
+      "ballvision calib", kUsage, argc, argv,
+      {{"show", ShowFile}, {"to-blob", Convert}, {"to-json", Convert}, {"set", Set}});
 }
 
 }  // namespace bv::cli

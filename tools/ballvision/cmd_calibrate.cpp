@@ -5,7 +5,6 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <map>
 #include <sstream>
 #include <string>
@@ -23,6 +22,7 @@
 #include "tools/ballvision/commands.h"
 #include "tools/ballvision/signals.h"
 #include "tools/ballvision/strict_json.h"
+#include "tools/ballvision/truth_csv.h"
 
 namespace bv::cli {
 namespace {
@@ -30,57 +30,28 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-void PerspUsage() {
-  std::fprintf(stderr,
-               "usage: ballvision calibrate persp (--images DIR | --corners corners.csv)\n"
-               "         [--board 9x6] [--square 0.07] [--skew] [--poses POSES.json]\n"
-               "         [--size 640x480] --out CALIB.json\n"
-               "  DIR: a folder of images (--prefix P: only names starting with P), or a\n"
-               "       sequence folder with frames.csv (persp_file column)\n"
-               "  corners.csv: image,corner,X,Y,u,v,in_image (board-plane X, Y)\n");
-}
+constexpr char kPerspUsage[] =
+    "usage: ballvision calibrate persp (--images DIR | --corners corners.csv)\n"
+    "         [--board 9x6] [--square 0.07] [--skew] [--poses POSES.json]\n"
+    "         [--size 640x480] --out CALIB.json\n"
+    "  DIR: a folder of images (--prefix P: only names starting with P), or a\n"
+    "       sequence folder with frames.csv (persp_file column)\n"
+    "  corners.csv: image,corner,X,Y,u,v,in_image (board-plane X, Y)\n";
 
-bool ParseDouble(const std::string& s, double& v) {
-  char* end = nullptr;
-  v = std::strtod(s.c_str(), &end);
-  return end != s.c_str() && *end == '\0' && std::isfinite(v);
-}
-
+// Through the strict CSV reader: a bad number or a short row is an error naming the line and
+// column; rows with in_image 0 are skipped.
 bool LoadCornersCsv(const std::string& path, std::vector<ZhangView>& views, std::string& error) {
-  std::ifstream f(path);
-  if (!f) {
-    error = "cannot open " + path;
-    return false;
-  }
-  std::string line;
-  std::getline(f, line);
-  const auto header = host::SplitCsvLine(line);
-  std::map<std::string, int> col;
-  for (size_t i = 0; i < header.size(); ++i) col[header[i]] = static_cast<int>(i);
-  for (const char* need : {"image", "X", "Y", "u", "v"}) {
-    if (!col.count(need)) {
-      error = path + ": column '" + need + "' missing";
-      return false;
-    }
-  }
+  TruthCsv csv;
+  if (!csv.Load(path, {"image", "X", "Y", "u", "v"}, error)) return false;
   std::map<std::string, size_t> index;
-  int line_no = 1;
-  while (std::getline(f, line)) {
-    ++line_no;
-    if (line.empty()) continue;
-    const auto c = host::SplitCsvLine(line);
-    if (c.size() < header.size()) {
-      error = path + ":" + std::to_string(line_no) + ": too few columns";
-      return false;
-    }
-    if (col.count("in_image") && c[col["in_image"]] == "0") continue;
+  for (size_t i = 0; i < csv.rows(); ++i) {
+    if (csv.Text(i, "in_image") == "0") continue;
     double X = 0, Y = 0, u = 0, v = 0;
-    if (!ParseDouble(c[col["X"]], X) || !ParseDouble(c[col["Y"]], Y) ||
-        !ParseDouble(c[col["u"]], u) || !ParseDouble(c[col["v"]], v)) {
-      error = path + ":" + std::to_string(line_no) + ": not a finite number";
+    if (!csv.Number(i, "X", X, false, error) || !csv.Number(i, "Y", Y, false, error) ||
+        !csv.Number(i, "u", u, false, error) || !csv.Number(i, "v", v, false, error)) {
       return false;
     }
-    const std::string& name = c[col["image"]];
+    const std::string& name = csv.Text(i, "image");
     if (!index.count(name)) {
       index[name] = views.size();
       views.push_back(ZhangView{name, {}, {}});
@@ -116,22 +87,14 @@ bool DetectImages(const std::string& dir, const std::string& prefix, int nx, int
                   std::vector<ZhangView>& views, int& width, int& height, std::string& error) {
   std::vector<std::pair<std::string, std::string>> files;  // name, path
   if (fs::exists(fs::path(dir) / "frames.csv")) {
-    std::ifstream f(fs::path(dir) / "frames.csv");
-    std::string line;
-    std::getline(f, line);
-    const auto header = host::SplitCsvLine(line);
-    int pc = -1;
-    for (size_t i = 0; i < header.size(); ++i)
-      if (header[i] == "persp_file") pc = static_cast<int>(i);
-    if (pc < 0) {
-      error = dir + "/frames.csv has no persp_file column";
-      return false;
-    }
-    while (std::getline(f, line)) {
-      const auto c = host::SplitCsvLine(line);
-      if (static_cast<int>(c.size()) > pc && !c[pc].empty()) {
-        files.emplace_back(c[pc], (fs::path(dir) / c[pc]).string());
-      }
+    // Through the strict sequence reader; the view is named as in frames.csv.
+    host::Sequence seq;
+    if (!host::LoadSequence(dir, seq, error)) return false;
+    for (const host::SequenceEntry& e : seq.entries) {
+      if (e.persp_path.empty()) continue;
+      const bool relative = e.persp_path.rfind(dir + "/", 0) == 0;
+      files.emplace_back(relative ? e.persp_path.substr(dir.size() + 1) : e.persp_path,
+                         e.persp_path);
     }
   } else if (fs::is_directory(dir)) {
     for (const auto& e : fs::directory_iterator(dir)) {
@@ -263,65 +226,97 @@ bool LoadPoses(const std::string& path, const std::vector<ZhangView>& views,
   return true;
 }
 
-int CalibratePersp(int argc, char** argv) {
+bool CornersInImage(const std::vector<ZhangView>& views, int width, int height,
+                    std::string& error) {
+  for (const auto& v : views) {
+    for (size_t i = 0; i < v.image.size(); ++i) {
+      const Eigen::Vector2d& q = v.image[i];
+      if (!(q.x() >= -0.5 && q.x() <= width - 0.5 && q.y() >= -0.5 && q.y() <= height - 0.5)) {
+        char buf[256];
+        std::snprintf(buf, sizeof buf, "%s corner %zu at (%.2f, %.2f) is outside the %dx%d image",
+                      v.name.c_str(), i, q.x(), q.y(), width, height);
+        error = buf;
+        return false;
+      }
+    }
+  }
+  return true;
+}
+
+// Prints the result; returns the rms per image for the calibration file.
+json PrintZhangResult(const std::vector<ZhangView>& views, const ZhangResult& r, bool skew) {
+  std::printf(
+      "Zhang calibration, %zu views%s (closed form: fx %.2f fy %.2f cx %.2f cy %.2f "
+      "skew %.4f; LM %d iterations)\n",
+      views.size(), skew ? ", with skew" : "", r.init_fx, r.init_fy, r.init_cx, r.init_cy,
+      r.init_skew, r.iterations);
+  json per_image = json::object();
+  for (size_t i = 0; i < views.size(); ++i) {
+    std::printf("  %-28s %3zu corners  rms %.4f px\n", views[i].name.c_str(), views[i].image.size(),
+                r.rms_per_view_px[i]);
+    per_image[views[i].name] = r.rms_per_view_px[i];
+  }
+  std::printf("fx %.4f fy %.4f cx %.4f cy %.4f skew %.5f k1 %.6f k2 %.6f\n", r.fx, r.fy, r.cx, r.cy,
+              r.skew, r.k1, r.k2);
+  std::printf("overall reprojection rms %.4f px\n", r.rms_px);
+  return per_image;
+}
+
+struct PerspArgs {
   std::string images, corners, poses_path, out, prefix;
   int nx = 9, ny = 6, width = 640, height = 480;
   double square = 0.07;
   ZhangOptions opt;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto next = [&]() -> const char* { return i + 1 < argc ? argv[++i] : nullptr; };
-    const char* v = nullptr;
-    std::string e;
-    if (a == "--skew") {
-      opt.skew = true;
-    } else if (a == "--help" || a == "-h") {
-      PerspUsage();
-      return 0;
-    } else if ((v = next()) == nullptr) {
-      PerspUsage();
-      return 2;
-    } else if (a == "--images") {
-      images = v;
-    } else if (a == "--prefix") {
-      prefix = v;
-    } else if (a == "--corners") {
-      corners = v;
-    } else if (a == "--poses") {
-      poses_path = v;
-    } else if (a == "--out") {
-      out = v;
-    } else if (a == "--square") {
-      if (!ArgNumber(a, v, 1e-4, 10, square, e)) {
-        std::fprintf(stderr, "calibrate persp: %s (board square size in metres)\n", e.c_str());
-        return 2;
-      }
-    } else if (a == "--board") {
-      int64_t bx = 0, by = 0;
-      if (!ArgIntPair(a, v, 'x', 2, 100, bx, by, e)) {
-        std::fprintf(stderr, "calibrate persp: %s (NXxNY inner corners, e.g. 9x6)\n", e.c_str());
-        return 2;
-      }
-      nx = static_cast<int>(bx);
-      ny = static_cast<int>(by);
-    } else if (a == "--size") {
-      int64_t w = 0, h = 0;
-      if (!ArgIntPair(a, v, 'x', 16, 4096, w, h, e)) {
-        std::fprintf(stderr, "calibrate persp: %s (image size WxH in pixels)\n", e.c_str());
-        return 2;
-      }
-      width = static_cast<int>(w);
-      height = static_cast<int>(h);
-    } else {
-      std::fprintf(stderr, "calibrate persp: unknown option %s\n", a.c_str());
-      PerspUsage();
-      return 2;
+};
+
+// "AxB" integer pairs, with what they mean in the message.
+ArgParser::Handler IntPair(const char* name, int64_t lo, int64_t hi, const char* meaning, int& a,
+                           int& b) {
+  return [=, &a, &b](const std::string& v, std::string& error) {
+    int64_t x = 0, y = 0;
+    if (!ArgIntPair(name, v, 'x', lo, hi, x, y, error)) {
+      error += meaning;
+      return false;
     }
-  }
-  if (images.empty() == corners.empty() || out.empty() || !(square > 0)) {
-    PerspUsage();
-    return 2;
-  }
+    a = static_cast<int>(x);
+    b = static_cast<int>(y);
+    return true;
+  };
+}
+
+// Returns -1 to go on, else the exit code.
+int ParsePerspArgs(int argc, char** argv, PerspArgs& a) {
+  ArgParser p("ballvision calibrate persp", kPerspUsage);
+  p.Flag("--skew", a.opt.skew)
+      .Text("--images", a.images)
+      .Text("--prefix", a.prefix)
+      .Text("--corners", a.corners)
+      .Text("--poses", a.poses_path)
+      .Text("--out", a.out)
+      .Required("--out")
+      .Custom("--square",
+              [&a](const std::string& v, std::string& error) {
+                if (ArgNumber("--square", v, 1e-4, 10, a.square, error)) return true;
+                error += " (board square size in metres)";
+                return false;
+              })
+      .Custom("--board", IntPair("--board", 2, 100, " (NXxNY inner corners, e.g. 9x6)", a.nx, a.ny))
+      .Custom("--size",
+              IntPair("--size", 16, 4096, " (image size WxH in pixels)", a.width, a.height));
+  if (const int rc = p.Parse(argc, argv); rc >= 0) return rc;
+  if (a.images.empty() == a.corners.empty()) return p.UsageError("give --images or --corners");
+  return -1;
+}
+
+int CalibratePersp(int argc, char** argv) {
+  PerspArgs a;
+  if (const int rc = ParsePerspArgs(argc, argv, a); rc >= 0) return rc;
+  const std::string &images = a.images, &corners = a.corners, &poses_path = a.poses_path;
+  const std::string &out = a.out, &prefix = a.prefix;
+  const int nx = a.nx, ny = a.ny;
+  int &width = a.width, &height = a.height;  // from the images when detected
+  const double square = a.square;
+  const ZhangOptions& opt = a.opt;
   std::vector<ZhangView> views;
   std::string error;
   std::vector<BoardPose> checked;
@@ -336,37 +331,12 @@ int CalibratePersp(int argc, char** argv) {
     std::fprintf(stderr, "calibrate persp: %s; no calibration written\n", error.c_str());
     return 1;
   }
-  for (const auto& v : views) {
-    for (size_t i = 0; i < v.image.size(); ++i) {
-      const Eigen::Vector2d& q = v.image[i];
-      if (!(q.x() >= -0.5 && q.x() <= width - 0.5 && q.y() >= -0.5 && q.y() <= height - 0.5)) {
-        std::fprintf(stderr,
-                     "calibrate persp: %s corner %zu at (%.2f, %.2f) is outside the %dx%d "
-                     "image; no calibration written\n",
-                     v.name.c_str(), i, q.x(), q.y(), width, height);
-        return 1;
-      }
-    }
-  }
   ZhangResult r;
-  if (!ZhangCalibrate(views, opt, r, error)) {
+  if (!CornersInImage(views, width, height, error) || !ZhangCalibrate(views, opt, r, error)) {
     std::fprintf(stderr, "calibrate persp: %s; no calibration written\n", error.c_str());
     return 1;
   }
-  std::printf(
-      "Zhang calibration, %zu views%s (closed form: fx %.2f fy %.2f cx %.2f cy %.2f "
-      "skew %.4f; LM %d iterations)\n",
-      views.size(), opt.skew ? ", with skew" : "", r.init_fx, r.init_fy, r.init_cx, r.init_cy,
-      r.init_skew, r.iterations);
-  json per_image = json::object();
-  for (size_t i = 0; i < views.size(); ++i) {
-    std::printf("  %-28s %3zu corners  rms %.4f px\n", views[i].name.c_str(), views[i].image.size(),
-                r.rms_per_view_px[i]);
-    per_image[views[i].name] = r.rms_per_view_px[i];
-  }
-  std::printf("fx %.4f fy %.4f cx %.4f cy %.4f skew %.5f k1 %.6f k2 %.6f\n", r.fx, r.fy, r.cx, r.cy,
-              r.skew, r.k1, r.k2);
-  std::printf("overall reprojection rms %.4f px\n", r.rms_px);
+  const json per_image = PrintZhangResult(views, r, opt.skew);
 
   PerspCalibration p;
   p.valid = true;
@@ -424,16 +394,15 @@ int CmdCalibrate(int argc, char** argv) {
   // Ctrl-C: the steps stop at the next image; a calibration from part of the data is not
   // written (the file keeps its old content).
   InstallInterruptHandlers();
-  int rc = -1;
-  if (argc >= 2 && !std::strcmp(argv[1], "persp")) rc = CalibratePersp(argc - 1, argv + 1);
-  if (argc >= 2 && !std::strcmp(argv[1], "omni")) rc = CalibrateOmni(argc - 1, argv + 1);
-  if (rc >= 0 && InterruptSignal()) {
+  const int rc = RunSubCommand(
+      "ballvision calibrate",
+      "usage: ballvision calibrate persp|omni ... ('calibrate persp --help' for options)\n", argc,
+      argv, {{"persp", CalibratePersp}, {"omni", CalibrateOmni}});
+  if (InterruptSignal()) {
     ReportInterrupt("ballvision calibrate");
     return InterruptExitCode();
   }
-  if (rc >= 0) return rc;
-  std::fprintf(stderr, "usage: ballvision calibrate persp|omni ... (--help for options)\n");
-  return 2;
+  return rc;
 }
 
 }  // namespace bv::cli

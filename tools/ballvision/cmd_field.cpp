@@ -14,6 +14,7 @@
 #include "core/pipeline.h"
 #include "hal/host/sequence.h"
 #include "tools/ballvision/calib_io.h"
+#include "tools/ballvision/cli_args.h"
 #include "tools/ballvision/commands.h"
 #include "tools/ballvision/run_common.h"
 #include "tools/ballvision/run_pipeline.h"
@@ -28,49 +29,18 @@ constexpr double kObstacleHitM = 0.3;
 struct FieldArgs {
   std::string seq, calib, lut, robots;
   int half = 0;
-  bool help = false, per_frame = false, stills = false, no_field = false;
+  bool per_frame = false, stills = false, no_field = false;
 };
 
-bool ParseFieldArgs(int argc, char** argv, FieldArgs& a, std::string& err) {
-  for (int i = 1; i < argc; ++i) {
-    const std::string k = argv[i];
-    const bool has_value = i + 1 < argc;
-    if (k == "--help" || k == "-h") {
-      a.help = true;
-    } else if (k == "--per-frame") {
-      a.per_frame = true;
-    } else if (k == "--stills") {
-      a.stills = true;
-    } else if (k == "--no-field") {
-      a.no_field = true;
-    } else if (k == "--calib" || k == "--lut" || k == "--robots" || k == "--half") {
-      if (!has_value) {
-        err = k + " needs a value";
-        return false;
-      }
-      const std::string v = argv[++i];
-      if (k == "--calib") a.calib = v;
-      if (k == "--lut") a.lut = v;
-      if (k == "--robots") a.robots = v;
-      if (k == "--half") {
-        if (v != "1" && v != "-1" && v != "+1" && v != "0") {
-          err = "--half must be -1, 0 or 1, not '" + v + "'";
-          return false;
-        }
-        a.half = std::stoi(v);
-      }
-    } else if (!k.empty() && k[0] == '-') {
-      err = "unknown option " + k;
-      return false;
-    } else if (a.seq.empty()) {
-      a.seq = k;
-    } else {
-      err = "unexpected argument " + k;
-      return false;
-    }
-  }
-  return true;
-}
+constexpr char kFieldUsage[] =
+    "usage: ballvision eval-field SEQ --calib FILE [--lut FILE] [--robots CSV]\n"
+    "       [--half -1|0|1] [--stills] [--no-field] [--per-frame]\n"
+    "  field figures against SEQ/truth.csv: pose (from an unknown start), line\n"
+    "  points, obstacles (--robots: index,x,y,radius, robot frame; see\n"
+    "  tools/python/scene_robots.py), ball recall and false balls per camera\n"
+    "  --half     the main computer's hint: sign of the robot's field x\n"
+    "  --stills   frames are unrelated stills: no ball tracking across frames\n"
+    "  --no-field field features and localisation off (the comparison)\n";
 
 struct TruthRow {
   double rx = 0, ry = 0, rh_deg = 0;
@@ -304,20 +274,18 @@ void PrintFigures(const Figures& f, bool have_robots) {
 
 int CmdEvalField(int argc, char** argv) {
   FieldArgs a;
+  ArgParser args("ballvision eval-field", kFieldUsage);
+  args.Positional("SEQ", a.seq)
+      .Text("--calib", a.calib)
+      .Required("--calib")
+      .Text("--lut", a.lut)
+      .Text("--robots", a.robots)
+      .Int("--half", -1, 1, a.half)
+      .Flag("--stills", a.stills)
+      .Flag("--no-field", a.no_field)
+      .Flag("--per-frame", a.per_frame);
+  if (const int rc = args.Parse(argc, argv); rc >= 0) return rc;
   std::string err, used;
-  if (!ParseFieldArgs(argc, argv, a, err) || a.help || a.seq.empty() || a.calib.empty()) {
-    std::fprintf(a.help ? stdout : stderr,
-                 "%s%susage: ballvision eval-field SEQ --calib FILE [--lut FILE] [--robots CSV]\n"
-                 "       [--half -1|0|1] [--stills] [--no-field] [--per-frame]\n"
-                 "  field figures against SEQ/truth.csv: pose (from an unknown start), line\n"
-                 "  points, obstacles (--robots: index,x,y,radius, robot frame; see\n"
-                 "  tools/python/scene_robots.py), ball recall and false balls per camera\n"
-                 "  --half     the main computer's hint: sign of the robot's field x\n"
-                 "  --stills   frames are unrelated stills: no ball tracking across frames\n"
-                 "  --no-field field features and localisation off (the comparison)\n",
-                 err.c_str(), err.empty() ? "" : "\n");
-    return a.help ? 0 : 2;
-  }
   host::Sequence seq;
   RigCalibration cal;
   ColorLut lut;

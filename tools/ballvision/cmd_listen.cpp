@@ -27,19 +27,16 @@
 namespace bv::cli {
 namespace {
 
-int ListenUsage() {
-  std::fprintf(stderr,
-               "usage: ballvision listen SOURCE [--csv STATES.csv] [--status-csv STATUS.csv]\n"
-               "                         [--pose-csv POSE.csv] [--lines-csv LINES.csv]\n"
-               "                         [--obstacles-csv OBSTACLES.csv]\n"
-               "                         [--baud N] [--seconds S] [--quiet]\n"
-               "  SOURCE: a serial device or pty (/dev/ttyUSB0), a file of captured bytes, '-'\n"
-               "          for stdin, or tcp:HOST:PORT (e.g. QEMU -chardev socket)\n"
-               "  Prints a live table (unless --quiet) and a summary; exit 1 if nothing valid\n"
-               "  was received. --lines-csv / --obstacles-csv: one row per point / obstacle\n"
-               "  (robot frame, m), with the packet's seq, t_us and found count.\n");
-  return 2;
-}
+constexpr char kListenUsage[] =
+    "usage: ballvision listen SOURCE [--csv STATES.csv] [--status-csv STATUS.csv]\n"
+    "                         [--pose-csv POSE.csv] [--lines-csv LINES.csv]\n"
+    "                         [--obstacles-csv OBSTACLES.csv]\n"
+    "                         [--baud N] [--seconds S] [--quiet]\n"
+    "  SOURCE: a serial device or pty (/dev/ttyUSB0), a file of captured bytes, '-'\n"
+    "          for stdin, or tcp:HOST:PORT (e.g. QEMU -chardev socket)\n"
+    "  Prints a live table (unless --quiet) and a summary; exit 1 if nothing valid\n"
+    "  was received. --lines-csv / --obstacles-csv: one row per point / obstacle\n"
+    "  (robot frame, m), with the packet's seq, t_us and found count.\n";
 
 speed_t BaudFlag(long baud) {
   switch (baud) {
@@ -236,43 +233,27 @@ struct FieldStreams {
 }  // namespace
 
 int CmdListen(int argc, char** argv) {
-  if (argc < 2 || !std::strcmp(argv[1], "--help")) return ListenUsage();
-  std::string source = argv[1], csv_path, status_path, pose_path, lines_path, obstacles_path;
+  std::string source, csv_path, status_path, pose_path, lines_path, obstacles_path;
   long baud = 921600;
   double seconds = 0;
   bool quiet = false;
-  for (int i = 2; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--csv" && i + 1 < argc) {
-      csv_path = argv[++i];
-    } else if (a == "--status-csv" && i + 1 < argc) {
-      status_path = argv[++i];
-    } else if (a == "--pose-csv" && i + 1 < argc) {
-      pose_path = argv[++i];
-    } else if (a == "--lines-csv" && i + 1 < argc) {
-      lines_path = argv[++i];
-    } else if (a == "--obstacles-csv" && i + 1 < argc) {
-      obstacles_path = argv[++i];
-    } else if (a == "--baud" && i + 1 < argc) {
-      std::string e;
-      if (!ArgIntAs(a, argv[++i], 1, 4000000, baud, e) || !BaudFlag(baud)) {
-        std::fprintf(
-            stderr, "ballvision listen: %s\n",
-            e.empty() ? ("--baud: unsupported rate " + std::to_string(baud)).c_str() : e.c_str());
-        return 2;
-      }
-    } else if (a == "--seconds" && i + 1 < argc) {
-      std::string e;
-      if (!ArgNumber(a, argv[++i], 0, 1e9, seconds, e)) {
-        std::fprintf(stderr, "ballvision listen: %s\n", e.c_str());
-        return 2;
-      }
-    } else if (a == "--quiet") {
-      quiet = true;
-    } else {
-      return ListenUsage();
-    }
-  }
+  ArgParser p("ballvision listen", kListenUsage);
+  p.Positional("SOURCE", source)
+      .Text("--csv", csv_path)
+      .Text("--status-csv", status_path)
+      .Text("--pose-csv", pose_path)
+      .Text("--lines-csv", lines_path)
+      .Text("--obstacles-csv", obstacles_path)
+      .Custom("--baud",
+              [&baud](const std::string& v, std::string& error) {
+                if (!ArgIntAs("--baud", v, 1, 4000000, baud, error)) return false;
+                if (BaudFlag(baud)) return true;
+                error = "--baud: unsupported rate " + std::to_string(baud);
+                return false;
+              })
+      .Number("--seconds", 0, 1e9, seconds)
+      .Flag("--quiet", quiet);
+  if (const int rc = p.Parse(argc, argv); rc >= 0) return rc;
   std::string err;
   const int fd = OpenSource(source, baud, err);
   if (fd < 0) {

@@ -17,27 +17,24 @@
 namespace bv::cli {
 namespace {
 
-int LutUsage() {
-  std::fprintf(
-      stderr,
-      "usage: ballvision lut train --out LUT.bin [sources] [--ratio R] [--min-weight W]\n"
-      "                           [--gauss D2 [--gauss-veto F]]  (chroma-Gaussian ball model)\n"
-      "                           [--shade MIN,MAX]  (brightness factors added per ball sample, "
-      "0.55,1.30)\n"
-      "       ballvision lut eval --lut LUT.bin [sources] [--center U,V] [--no-track] [--verbose]\n"
-      "                           [--regions]  (every traced region with its shape measures)\n"
-      "                           [--annotate DIR]  (debug pictures of every evaluated frame)\n"
-      "       ballvision lut show LUT.bin\n"
-      "sources (repeatable):\n"
-      "  --sim DIR            rendered sequence with truth.csv (ball silhouettes from the truth)\n"
-      "  --camera omni|persp|both   cameras of the following --sim (default both)\n"
-      "  --every N --phase P  use frames with index %% N == P (train/test split; default all)\n"
-      "  --boxes FILE --images DIR [--split all|even|odd]  annotated boxes (msl format:\n"
-      "                       'image class_id class x0 y0 x1 y1'); split by image order\n"
-      "  --teach IMG:U,V[:CLASS[:TOL]]  grow a region from one clicked pixel (CLASS ball|field|\n"
-      "                       line|obstacle, default ball; TOL shade-normalised chroma, 0.12)\n");
-  return 2;
-}
+constexpr char kLutUsage[] =
+    "usage: ballvision lut train --out LUT.bin [sources] [--ratio R] [--min-weight W]\n"
+    "                           [--gauss D2 [--gauss-veto F]]  (chroma-Gaussian ball model)\n"
+    "                           [--shade MIN,MAX]  (brightness factors added per ball sample, "
+    "0.55,1.30)\n"
+    "       ballvision lut eval --lut LUT.bin [sources] [--center U,V] [--no-track] [--verbose]\n"
+    "                           [--regions]  (every traced region with its shape measures)\n"
+    "                           [--annotate DIR]  (debug pictures of every evaluated frame)\n"
+    "                           [--min-roundness R]  (of a ball region, 0..1)\n"
+    "       ballvision lut show LUT.bin\n"
+    "sources (repeatable):\n"
+    "  --sim DIR            rendered sequence with truth.csv (ball silhouettes from the truth)\n"
+    "  --camera omni|persp|both   cameras of the following --sim (default both)\n"
+    "  --every N --phase P  use frames with index % N == P (train/test split; default all)\n"
+    "  --boxes FILE --images DIR [--split all|even|odd]  annotated boxes (msl format:\n"
+    "                       'image class_id class x0 y0 x1 y1'); split by image order\n"
+    "  --teach IMG:U,V[:CLASS[:TOL]]  grow a region from one clicked pixel (CLASS ball|field|\n"
+    "                       line|obstacle, default ball; TOL shade-normalised chroma, 0.12)\n";
 
 bool ReadFile(const std::string& path, std::vector<uint8_t>& out) {
   std::ifstream in(path, std::ios::binary);
@@ -95,122 +92,132 @@ bool ParseClass(const std::string& s, ColorClass& c) {
   return false;
 }
 
-bool ParseArgs(int argc, char** argv, Args& a) {
+// IMG:U,V[:CLASS[:TOL]]
+bool ParseTeach(const std::string& val, Teach& t, std::string& error) {
+  std::vector<std::string> parts;
+  size_t start = 0;
+  for (size_t p = val.find(':'); p != std::string::npos; p = val.find(':', start)) {
+    parts.push_back(val.substr(start, p - start));
+    start = p + 1;
+  }
+  parts.push_back(val.substr(start));
+  int64_t tu = 0, tv = 0;
+  if (parts.size() < 2) {
+    error = "--teach: got '" + val + "', expected IMG:U,V[:CLASS[:TOL]]";
+    return false;
+  }
+  if (!ArgIntPair("--teach", parts[1], ',', 0, 8191, tu, tv, error)) return false;
+  t.u = static_cast<int>(tu);
+  t.v = static_cast<int>(tv);
+  t.image = parts[0];
+  if (parts.size() > 2 && !ParseClass(parts[2], t.cls)) {
+    error = "--teach: got class '" + parts[2] + "', expected ball, field, line or obstacle";
+    return false;
+  }
+  return parts.size() <= 3 || ArgNumberAs("--teach", parts[3], 0, 10, t.tol, error);
+}
+
+// One option set for train and eval. Source modifiers (--camera, --every, --phase, --split)
+// apply to the --sim / --boxes after them: the handlers run in command-line order.
+int ParseArgs(int argc, char** argv, const std::string& command, Args& a) {
   bool omni = true, persp = true;
   int every = 1, phase = 0;
   std::string split = "all";
-  float cu = 314.2f, cv = 244.1f;  // reference rig mirror circle (render/README.md)
-  std::string pending;             // a source modifier no source has used yet
-  std::string e;
-  auto Num = [&e](bool ok) {  // a refused number is a usage error with its own message
-    if (!ok) std::fprintf(stderr, "ballvision lut: %s\n", e.c_str());
-    return ok;
+  double cu = 314.2, cv = 244.1;  // reference rig mirror circle (render/README.md)
+  std::string pending;            // a source modifier no source has used yet
+  const auto modifier = [&pending](const char* name, ArgParser::Handler check) {
+    return [name, check, &pending](const std::string& v, std::string& error) {
+      if (!check(v, error)) return false;
+      pending = name;
+      return true;
+    };
   };
-  for (int i = 2; i < argc; ++i) {
-    const std::string k = argv[i];
-    const bool has = i + 1 < argc;
-    const std::string val = has ? argv[i + 1] : "";
-    if (k == "--regions") {
-      a.setup.dump_regions = true;
-      continue;
-    }
-    if (k == "--verbose") {
-      a.verbose = a.setup.verbose = true;
-      continue;
-    }
-    if (k == "--no-track") {
-      a.setup.track = false;
-      continue;
-    }
-    if (!has) {
-      std::fprintf(stderr, "ballvision lut: %s needs a value\n", k.c_str());
-      return false;
-    }
-    ++i;
-    if (k == "--out")
-      a.out = val;
-    else if (k == "--lut")
-      a.lut = val;
-    else if (k == "--annotate")
-      a.setup.annotate_dir = val;
-    else if (k == "--camera") {
-      omni = val == "omni" || val == "both";
-      persp = val == "persp" || val == "both";
-      if (!omni && !persp) return false;
-      pending = k;
-    } else if (k == "--every") {
-      if (!Num(ArgIntAs(k, val, 1, 1000000, every, e))) return false;
-      pending = k;
-    } else if (k == "--phase") {
-      if (!Num(ArgIntAs(k, val, 0, 999999, phase, e))) return false;
-      pending = k;
-    } else if (k == "--sim") {
-      a.sims.push_back({val, omni, persp, every, phase});
-      pending.clear();
-    } else if (k == "--split") {
-      if (val != "all" && val != "even" && val != "odd") return false;
-      split = val;
-      pending = k;
-    } else if (k == "--boxes") {
-      a.boxes.push_back({val, "", split});
-      pending.clear();
-    } else if (k == "--images") {
-      if (a.boxes.empty()) return false;
-      a.boxes.back().images = val;
-      a.boxes.back().split = split;
-    } else if (k == "--ratio") {
-      if (!Num(ArgNumberAs(k, val, 0, 1e6, a.train.ratio, e))) return false;
-    } else if (k == "--shade") {
-      double lo = 0, hi = 0;
-      if (!Num(ArgNumberPair(k, val, ',', 0.01, 100, lo, hi, e))) return false;
-      a.train.shade_min = static_cast<float>(lo);
-      a.train.shade_max = static_cast<float>(hi);
-    } else if (k == "--gauss") {
-      if (!Num(ArgNumberAs(k, val, 0, 1e6, a.train.gauss_d2, e))) return false;
-    } else if (k == "--gauss-veto") {
-      if (!Num(ArgNumberAs(k, val, 0, 1e6, a.train.gauss_veto, e))) return false;
-    } else if (k == "--min-weight") {
-      if (!Num(ArgNumberAs(k, val, 0, 1e9, a.train.min_ball_weight, e))) return false;
-    } else if (k == "--min-roundness") {
-      if (!Num(ArgNumberAs(k, val, 0, 1, a.setup.finder.min_roundness, e))) return false;
-    } else if (k == "--center") {
-      double u = 0, v = 0;
-      if (!Num(ArgNumberPair(k, val, ',', 0, 4096, u, v, e))) return false;
-      cu = static_cast<float>(u);
-      cv = static_cast<float>(v);
-    } else if (k == "--teach") {
-      Teach t;
-      // IMG:U,V[:CLASS[:TOL]] — parse from the right.
-      std::vector<std::string> parts;
-      size_t start = 0;
-      for (size_t p = val.find(':'); p != std::string::npos; p = val.find(':', start)) {
-        parts.push_back(val.substr(start, p - start));
-        start = p + 1;
-      }
-      parts.push_back(val.substr(start));
-      int64_t tu = 0, tv = 0;
-      if (parts.size() < 2) return false;
-      if (!Num(ArgIntPair(k, parts[1], ',', 0, 8191, tu, tv, e))) return false;
-      t.u = static_cast<int>(tu);
-      t.v = static_cast<int>(tv);
-      t.image = parts[0];
-      if (parts.size() > 2 && !ParseClass(parts[2], t.cls)) return false;
-      if (parts.size() > 3 && !Num(ArgNumberAs(k, parts[3], 0, 10, t.tol, e))) return false;
-      a.teach.push_back(t);
-    } else {
-      std::fprintf(stderr, "ballvision lut: unknown option %s\n", k.c_str());
-      return false;
-    }
-  }
+  ArgParser p(command, kLutUsage);
+  p.FlagAction("--regions", [&a] { a.setup.dump_regions = true; })
+      .FlagAction("--verbose", [&a] { a.verbose = a.setup.verbose = true; })
+      .FlagAction("--no-track", [&a] { a.setup.track = false; })
+      .Text("--out", a.out)
+      .Text("--lut", a.lut)
+      .Text("--annotate", a.setup.annotate_dir)
+      .Custom("--camera", modifier("--camera",
+                                   [&](const std::string& v, std::string& error) {
+                                     omni = v == "omni" || v == "both";
+                                     persp = v == "persp" || v == "both";
+                                     if (omni || persp) return true;
+                                     error =
+                                         "--camera: got '" + v + "', expected omni, persp or both";
+                                     return false;
+                                   }))
+      .Custom("--every", modifier("--every",
+                                  [&](const std::string& v, std::string& error) {
+                                    return ArgIntAs("--every", v, 1, 1000000, every, error);
+                                  }))
+      .Custom("--phase", modifier("--phase",
+                                  [&](const std::string& v, std::string& error) {
+                                    return ArgIntAs("--phase", v, 0, 999999, phase, error);
+                                  }))
+      .Custom("--split", modifier("--split",
+                                  [&](const std::string& v, std::string& error) {
+                                    if (v == "all" || v == "even" || v == "odd") {
+                                      split = v;
+                                      return true;
+                                    }
+                                    error = "--split: got '" + v + "', expected all, even or odd";
+                                    return false;
+                                  }))
+      .Custom("--sim",
+              [&](const std::string& v, std::string&) {
+                a.sims.push_back({v, omni, persp, every, phase});
+                pending.clear();
+                return true;
+              })
+      .Custom("--boxes",
+              [&](const std::string& v, std::string&) {
+                a.boxes.push_back({v, "", split});
+                pending.clear();
+                return true;
+              })
+      .Custom("--images",
+              [&](const std::string& v, std::string& error) {
+                if (a.boxes.empty()) {
+                  error = "--images: applies to the --boxes before it; none given";
+                  return false;
+                }
+                a.boxes.back().images = v;
+                a.boxes.back().split = split;
+                return true;
+              })
+      .Number("--ratio", 0, 1e6, a.train.ratio)
+      .Custom("--shade",
+              [&a](const std::string& v, std::string& error) {
+                double lo = 0, hi = 0;
+                if (!ArgNumberPair("--shade", v, ',', 0.01, 100, lo, hi, error)) return false;
+                a.train.shade_min = static_cast<float>(lo);
+                a.train.shade_max = static_cast<float>(hi);
+                return true;
+              })
+      .Number("--gauss", 0, 1e6, a.train.gauss_d2)
+      .Number("--gauss-veto", 0, 1e6, a.train.gauss_veto)
+      .Number("--min-weight", 0, 1e9, a.train.min_ball_weight)
+      .Number("--min-roundness", 0, 1, a.setup.finder.min_roundness)
+      .Custom("--center",
+              [&](const std::string& v, std::string& error) {
+                return ArgNumberPair("--center", v, ',', 0, 4096, cu, cv, error);
+              })
+      .Custom("--teach", [&a](const std::string& v, std::string& error) {
+        Teach t;
+        if (!ParseTeach(v, t, error)) return false;
+        a.teach.push_back(t);
+        return true;
+      });
+  if (const int rc = p.Parse(argc, argv); rc >= 0) return rc;
   if (!pending.empty()) {
     // Modifiers apply to the sources that follow them; a trailing one would be silently ignored.
-    std::fprintf(stderr, "ballvision lut: %s applies to the --sim/--boxes after it; none follows\n",
-                 pending.c_str());
-    return false;
+    return p.UsageError(pending + " applies to the --sim/--boxes after it; none follows");
   }
-  a.setup.omni = ReferenceOmniScanConfig(cu, cv);
+  a.setup.omni = ReferenceOmniScanConfig(static_cast<float>(cu), static_cast<float>(cv));
   a.setup.persp = ReferencePerspScanConfig();
-  return true;
+  return -1;
 }
 
 bool SelectBoxes(const BoxSource& b, std::vector<lut::BoxImage>& out) {
@@ -230,7 +237,10 @@ bool SelectBoxes(const BoxSource& b, std::vector<lut::BoxImage>& out) {
 }
 
 int Train(const Args& a) {
-  if (a.out.empty()) return LutUsage();
+  if (a.out.empty()) {
+    std::fprintf(stderr, "ballvision lut train: missing --out\n\n%s", kLutUsage);
+    return 2;
+  }
   if (a.sims.empty() && a.boxes.empty() && a.teach.empty()) {
     std::fprintf(stderr,
                  "ballvision lut train: no training source (--sim, --boxes or --teach); "
@@ -315,7 +325,10 @@ int Train(const Args& a) {
 
 int Eval(const Args& a) {
   static ColorLut lut;
-  if (a.lut.empty()) return LutUsage();
+  if (a.lut.empty()) {
+    std::fprintf(stderr, "ballvision lut eval: missing --lut\n\n%s", kLutUsage);
+    return 2;
+  }
   if (!LoadLut(a.lut, lut)) return 1;
   if (a.sims.empty() && a.boxes.empty()) {
     std::fprintf(stderr, "ballvision lut eval: nothing to evaluate (--sim or --boxes)\n");
@@ -378,14 +391,21 @@ int Show(const std::string& path) {
 }  // namespace
 
 int CmdLut(int argc, char** argv) {
-  if (argc < 2 || !std::strcmp(argv[1], "--help")) return LutUsage();
-  const std::string sub = argv[1];
-  if (sub == "show") return argc == 3 ? Show(argv[2]) : LutUsage();
-  Args a;
-  if (!ParseArgs(argc, argv, a)) return LutUsage();
-  if (sub == "train") return Train(a);
-  if (sub == "eval") return Eval(a);
-  return LutUsage();
+  const auto show = [](int ac, char** av) {
+    std::string path;
+    ArgParser p("ballvision lut show", kLutUsage);
+    p.Positional("LUT", path);
+    if (const int rc = p.Parse(ac, av); rc >= 0) return rc;
+    return Show(path);
+  };
+  const auto train_or_eval = [](int ac, char** av) {
+    const std::string sub = av[0];
+    Args a;
+    if (const int rc = ParseArgs(ac, av, "ballvision lut " + sub, a); rc >= 0) return rc;
+    return sub == "train" ? Train(a) : Eval(a);
+  };
+  return RunSubCommand("ballvision lut", kLutUsage, argc, argv,
+                       {{"train", train_or_eval}, {"eval", train_or_eval}, {"show", show}});
 }
 
 }  // namespace bv::cli

@@ -8,7 +8,6 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <map>
 #include <memory>
 #include <string>
@@ -19,6 +18,7 @@
 #include "core/pipeline.h"
 #include "hal/host/sequence.h"
 #include "tools/ballvision/calib_io.h"
+#include "tools/ballvision/cli_args.h"
 #include "tools/ballvision/commands.h"
 #include "tools/ballvision/demo_scene.h"
 #include "tools/ballvision/run_common.h"
@@ -26,6 +26,7 @@
 #include "tools/ballvision/safe_write.h"
 #include "tools/ballvision/signals.h"
 #include "tools/ballvision/states_csv.h"
+#include "tools/ballvision/strict_json.h"
 #include "tools/ballvision/truth_csv.h"
 
 namespace bv::cli {
@@ -38,66 +39,46 @@ struct Args {
   double bounce_factor = -1;
   int frames = 75;
   bool stills = false;
-  bool help = false;
 };
 
-bool ParseArgs(int argc, char** argv, Args& a, std::string& error) {
-  for (int i = 1; i < argc; ++i) {
-    const std::string k = argv[i];
-    auto value = [&](std::string& dst) {
-      if (i + 1 >= argc) {
-        error = k + " needs a value";
-        return false;
-      }
-      dst = argv[++i];
-      return true;
-    };
-    std::string v;
-    if (k == "--help" || k == "-h") {
-      a.help = true;
-    } else if (k == "--calib") {
-      if (!value(a.calib)) return false;
-    } else if (k == "--out") {
-      if (!value(a.out)) return false;
-    } else if (k == "--lut") {
-      if (!value(a.lut)) return false;
-    } else if (k == "--annotate") {
-      if (!value(a.annotate)) return false;
-    } else if (k == "--features") {
-      if (!value(a.features)) return false;
-    } else if (k == "--plots") {
-      if (!value(a.plots)) return false;
-    } else if (k == "--stills") {
-      a.stills = true;
-    } else if (k == "--predict-ms" || k == "--at-ms" || k == "--frames" || k == "--bounce-factor") {
-      if (!value(v)) return false;
-      char* end = nullptr;
-      const double d = std::strtod(v.c_str(), &end);
-      if (end == v.c_str() || *end || !(d >= 0) || d > 1e6) {
-        error = k + ": '" + v + "' is not a non-negative number";
-        return false;
-      }
-      if (k == "--predict-ms") a.predict_ms = static_cast<int>(d);
-      if (k == "--at-ms") a.at_ms = d;
-      if (k == "--frames") a.frames = std::max(10, static_cast<int>(d));
-      if (k == "--bounce-factor") {
-        if (d <= 0 || d >= 1) {
-          error = "--bounce-factor must be in (0, 1)";
+constexpr char kRunUsage[] =
+    "usage: ballvision run SEQ --calib FILE [--out states.csv] [--predict-ms N]\n"
+    "       [--lut FILE] [--annotate DIR] [--features DIR] [--stills]\n"
+    "       [--bounce-factor B (0.7)]\n"
+    "  --lut      colour LUT blob; default $BV_LUT, then <calib dir>/luts/*.lut,\n"
+    "             then a built-in colour rule\n"
+    "  --stills   frames are unrelated stills: no tracking across frames\n"
+    "  --features DIR  field features per frame: DIR/lines.csv (index,x,y) and\n"
+    "             DIR/obstacles.csv (index,x,y,radius), robot frame, metres\n";
+constexpr char kEvalUsage[] =
+    "usage: ballvision eval SEQ --calib FILE [--lut FILE] [--plots DIR]\n"
+    "       [--predict-ms N (200)] [--at-ms T (prediction plot start)]\n"
+    "       [--bounce-factor B (0.7)] [--out states.csv] [--annotate DIR] [--stills]\n";
+constexpr char kDemoUsage[] =
+    "usage: ballvision demo [--out DIR (./demo_out)] [--frames N (75)]\n"
+    "Draws a bouncing lob and a static grid through the built-in reference-rig\n"
+    "calibration, runs the full pipeline, prints the ball states and writes\n"
+    "states.csv and the plots (Fig. 4 and Fig. 5 style) to DIR.\n";
+
+// The options `run` and `eval` share.
+void PipelineOptions(ArgParser& p, Args& a) {
+  p.Positional("SEQ", a.seq)
+      .Text("--calib", a.calib)
+      .Required("--calib")
+      .Text("--out", a.out)
+      .Text("--lut", a.lut)
+      .Text("--annotate", a.annotate)
+      .Flag("--stills", a.stills)
+      .Int("--predict-ms", 0, 1000000, a.predict_ms)
+      .Custom("--bounce-factor", [&a](const std::string& v, std::string& error) {
+        // Open interval: 0 stops the ball at the first bounce, 1 never loses energy.
+        if (!ArgNumber("--bounce-factor", v, 0, 1, a.bounce_factor, error) ||
+            a.bounce_factor <= 0 || a.bounce_factor >= 1) {
+          error = "--bounce-factor: got '" + v + "', expected a number in (0, 1)";
           return false;
         }
-        a.bounce_factor = d;
-      }
-    } else if (!k.empty() && k[0] == '-') {
-      error = "unknown option " + k;
-      return false;
-    } else if (a.seq.empty()) {
-      a.seq = k;
-    } else {
-      error = "unexpected argument " + k;
-      return false;
-    }
-  }
-  return true;
+        return true;
+      });
 }
 
 // Everything `run` and `eval` share: sequence, calibration, LUT, pipeline.
@@ -169,20 +150,11 @@ const char* MeasKind(const BallState& s) {
 
 int CmdRun(int argc, char** argv) {
   Args a;
+  ArgParser p("ballvision run", kRunUsage);
+  PipelineOptions(p, a);
+  p.Text("--features", a.features);
+  if (const int rc = p.Parse(argc, argv); rc >= 0) return rc;
   std::string err;
-  if (!ParseArgs(argc, argv, a, err) || a.help || a.seq.empty() || a.calib.empty()) {
-    std::fprintf(a.help ? stdout : stderr,
-                 "%s%susage: ballvision run SEQ --calib FILE [--out states.csv] [--predict-ms N]\n"
-                 "       [--lut FILE] [--annotate DIR] [--features DIR] [--stills]\n"
-                 "       [--bounce-factor B (0.7)]\n"
-                 "  --lut      colour LUT blob; default $BV_LUT, then <calib dir>/luts/*.lut,\n"
-                 "             then a built-in colour rule\n"
-                 "  --stills   frames are unrelated stills: no tracking across frames\n"
-                 "  --features DIR  field features per frame: DIR/lines.csv (index,x,y) and\n"
-                 "             DIR/obstacles.csv (index,x,y,radius), robot frame, metres\n",
-                 err.c_str(), err.empty() ? "" : "\n");
-    return a.help ? 0 : 2;
-  }
   Setup s;
   if (!Prepare(a, "run", s)) return 1;
   RunSettings rs;
@@ -247,18 +219,24 @@ bool ReadTruth(const std::string& path, std::map<uint64_t, Truth>& out, std::str
   return true;
 }
 
-// EvalGrid skips rows it cannot use; here every row must be usable, or the file is refused.
-bool CheckGridCsv(const std::string& path, std::string& error) {
+// The static grid's cells: index, distance_m, z_m (and bearing_deg, 0 when absent).
+struct GridRow {
+  int64_t index = 0;
+  double d_m = 0, z_m = 0, bearing_deg = 0;
+};
+// Strict: every row must be usable, or the file is refused.
+bool ReadGridCsv(const std::string& path, std::vector<GridRow>& rows, std::string& error) {
   TruthCsv csv;
   if (!csv.Load(path, {"index", "distance_m", "z_m"}, error)) return false;
   for (size_t i = 0; i < csv.rows(); ++i) {
-    int64_t idx = 0;
-    double v = 0;
-    if (!csv.Integer(i, "index", INT64_MIN, INT64_MAX, idx, error) ||
-        !csv.Number(i, "distance_m", v, false, error) || !csv.Number(i, "z_m", v, false, error) ||
-        !csv.Number(i, "bearing_deg", v, true, error)) {
+    GridRow r;
+    if (!csv.Integer(i, "index", INT64_MIN, INT64_MAX, r.index, error) ||
+        !csv.Number(i, "distance_m", r.d_m, false, error) ||
+        !csv.Number(i, "z_m", r.z_m, false, error) ||
+        !csv.Number(i, "bearing_deg", r.bearing_deg, true, error)) {
       return false;
     }
+    rows.push_back(r);
   }
   return true;
 }
@@ -279,23 +257,90 @@ double Dist3(const Eigen::Vector3f& p, const Truth& t) {
                    (p.z() - t.z) * (p.z() - t.z));
 }
 
+// Paper Fig. 4: per ball height, the 3D error of the measurement and of the omni-only "2D"
+// estimate against the distance.
+struct GridCell {
+  double d_m, e3_cm, e2_cm;
+};
+using Fig4Cells = std::map<double, std::vector<GridCell>>;  // by height (m), distance ascending
+
+std::vector<PlotSeries> Fig4Series(const Fig4Cells& cells) {
+  const uint8_t colors[3][3] = {{200, 30, 30}, {30, 140, 30}, {30, 60, 200}};
+  std::vector<PlotSeries> series;
+  int ci = 0;
+  for (const auto& [h, row] : cells) {
+    PlotSeries s3, s2;
+    char name[64];
+    std::snprintf(name, sizeof name, "3D z=%.0fcm", h * 100);
+    s3.name = name;
+    std::snprintf(name, sizeof name, "2D (omni only) z=%.0fcm", h * 100);
+    s2.name = name;
+    for (const GridCell& c : row) {
+      s3.x.push_back(c.d_m);
+      s3.y.push_back(c.e3_cm);
+      s2.x.push_back(c.d_m);
+      s2.y.push_back(c.e2_cm);
+    }
+    const uint8_t* c = colors[ci++ % 3];
+    s3.r = s2.r = c[0];
+    s3.g = s2.g = c[1];
+    s3.b = s2.b = c[2];
+    s3.style = PlotSeries::kLinePoints;
+    s2.style = PlotSeries::kDashed;
+    series.push_back(s3);
+    if (h > 0.15) series.push_back(s2);  // on the floor the 2D estimate is the same idea
+  }
+  return series;
+}
+
+// Paper Fig. 5 left: true and estimated height and vertical velocity over time. The truth as
+// time, z, vz; the estimate from the records (a gap where the ball was not found).
+std::vector<PlotSeries> Fig5Series(const std::vector<double>& t_s, const std::vector<double>& z,
+                                   const std::vector<double>& vz,
+                                   const std::vector<FrameRecord>& recs) {
+  PlotSeries zt{"true height", t_s, z, 0, 160, 0}, ze{"estimated height", {}, {}, 220, 30, 30};
+  PlotSeries vt{"true vz", t_s, vz, 240, 150, 0}, ve{"estimated vz", {}, {}, 30, 60, 220};
+  ze.style = ve.style = PlotSeries::kLinePoints;
+  for (const auto& r : recs) {
+    ze.x.push_back(r.state.t_us * 1e-6);
+    ze.y.push_back(r.state.found ? r.state.z_m : NAN);
+    ve.x.push_back(r.state.t_us * 1e-6);
+    ve.y.push_back(r.state.found ? r.state.vz_mps : NAN);
+  }
+  return {zt, ze, vt, ve};
+}
+
+// Paper Fig. 5 right: the height the filter predicts from `from_us` on, every 10 ms.
+struct Prediction {
+  std::vector<double> t_s, z;
+};
+Prediction SamplePrediction(const BallFilter& filter, uint64_t from_us, int steps) {
+  Prediction out;
+  for (int k = 0; k <= steps; ++k) {
+    const uint64_t t = from_us + static_cast<uint64_t>(k) * 10000;
+    Eigen::Vector3f pp, vv;
+    BallMode m;
+    if (filter.StateAt(t, pp, vv, m)) {
+      out.t_s.push_back(t * 1e-6);
+      out.z.push_back(pp.z());
+    }
+  }
+  return out;
+}
+
 // Static grid: per distance x height the 3D error of the measurement (no filter, no ground
 // constraint) and of the omni-only "2D" estimate (paper Fig. 4).
-void EvalGrid(const Args& a, const CsvTable& grid, const std::vector<FrameRecord>& recs,
+void EvalGrid(const Args& a, const std::vector<GridRow>& grid, const std::vector<FrameRecord>& recs,
               const std::map<uint64_t, Truth>& truth) {
   std::map<int64_t, const FrameRecord*> by_index;
   for (const auto& r : recs) by_index[r.index] = &r;
   std::map<double, std::map<double, std::pair<double, double>>> cell;  // h -> d -> (3d, 2d)
-  std::map<double, std::map<double, std::string>> kind;
   std::printf("\n3D error of the per-frame measurement (paper Fig. 4), static_grid\n");
   std::printf("%6s %6s %6s | %9s %-5s | %9s | %7s\n", "dist_m", "h_m", "brg", "err3d_cm", "kind",
               "err2d_cm", "gap_cm");
-  for (const auto& row : grid.rows) {
-    double idx, d, h, brg = 0;
-    if (!Field(row, "index", idx) || !Field(row, "distance_m", d) || !Field(row, "z_m", h))
-      continue;
-    Field(row, "bearing_deg", brg);
-    auto it = by_index.find(static_cast<int64_t>(idx));
+  for (const GridRow& row : grid) {
+    const double d = row.d_m, h = row.z_m, brg = row.bearing_deg;
+    auto it = by_index.find(row.index);
     if (it == by_index.end()) continue;
     const FrameRecord& r = *it->second;
     const Truth* t = TruthAt(truth, r.state.t_us);
@@ -304,7 +349,6 @@ void EvalGrid(const Args& a, const CsvTable& grid, const std::vector<FrameRecord
     if (r.meas.valid) e3 = Dist3(r.meas.p_m, *t);
     if (r.meas.omni_ground_valid) e2 = Dist3(r.meas.omni_ground_m, *t);
     cell[h][d] = {e3, e2};
-    kind[h][d] = MeasKind(r.state);
     char gap[32] = "";
     if (r.state.ray_gap_m >= 0) std::snprintf(gap, sizeof gap, "%.2f", r.state.ray_gap_m * 100);
     std::printf("%6.2f %6.2f %6.0f | %9.2f %-5s | %9.2f | %7s\n", d, h, brg, e3 * 100,
@@ -325,159 +369,89 @@ void EvalGrid(const Args& a, const CsvTable& grid, const std::vector<FrameRecord
     for (auto& v : b) std::printf(" %8.2fcm", v.empty() ? NAN : Median(v) * 100);
     std::printf("\n");
   }
-  if (!a.plots.empty()) {
-    std::vector<PlotSeries> series;
-    const uint8_t colors[3][3] = {{200, 30, 30}, {30, 140, 30}, {30, 60, 200}};
-    int ci = 0;
-    for (const auto& [h, ds] : cell) {
-      PlotSeries s3, s2;
-      char name[64];
-      std::snprintf(name, sizeof name, "3D z=%.0fcm", h * 100);
-      s3.name = name;
-      std::snprintf(name, sizeof name, "2D (omni only) z=%.0fcm", h * 100);
-      s2.name = name;
-      for (const auto& [d, e] : ds) {
-        s3.x.push_back(d);
-        s3.y.push_back(e.first * 100);
-        s2.x.push_back(d);
-        s2.y.push_back(e.second * 100);
-      }
-      const uint8_t* c = colors[ci++ % 3];
-      s3.r = s2.r = c[0];
-      s3.g = s2.g = c[1];
-      s3.b = s2.b = c[2];
-      s3.style = PlotSeries::kLinePoints;
-      s2.style = PlotSeries::kDashed;
-      series.push_back(s3);
-      if (h > 0.15) series.push_back(s2);  // on the floor the 2D estimate is the same idea
-    }
-    std::string err;
-    const std::string path = a.plots + "/fig4_error_vs_distance.png";
-    std::vector<PlotSeries> only3d;
-    for (const auto& s : series) {
-      if (s.style != PlotSeries::kDashed) only3d.push_back(s);
-    }
-    const std::string zoom = a.plots + "/fig4_error_vs_distance_3d_only.png";
-    if (PlotPng(path, "3D error vs distance (static grid), dashed: omni only + floor",
-                "distance [m]", "error [cm]", series, err) &&
-        PlotPng(zoom, "3D error vs distance (static grid), stereo only", "distance [m]",
-                "error [cm]", only3d, err)) {
-      std::printf("wrote %s, %s\n", path.c_str(), zoom.c_str());
-    } else {
-      std::fprintf(stderr, "%s\n", err.c_str());
-    }
+  if (a.plots.empty()) return;
+  Fig4Cells cells;
+  for (const auto& [h, ds] : cell) {
+    for (const auto& [d, e] : ds) cells[h].push_back({d, e.first * 100, e.second * 100});
+  }
+  const std::vector<PlotSeries> series = Fig4Series(cells);
+  std::vector<PlotSeries> only3d;
+  for (const auto& s : series) {
+    if (s.style != PlotSeries::kDashed) only3d.push_back(s);
+  }
+  std::string err;
+  const std::string path = a.plots + "/fig4_error_vs_distance.png";
+  const std::string zoom = a.plots + "/fig4_error_vs_distance_3d_only.png";
+  if (PlotPng(path, "3D error vs distance (static grid), dashed: omni only + floor", "distance [m]",
+              "error [cm]", series, err) &&
+      PlotPng(zoom, "3D error vs distance (static grid), stereo only", "distance [m]", "error [cm]",
+              only3d, err)) {
+    std::printf("wrote %s, %s\n", path.c_str(), zoom.c_str());
+  } else {
+    std::fprintf(stderr, "%s\n", err.c_str());
   }
 }
 
-}  // namespace
-
-int CmdEval(int argc, char** argv) {
-  Args a;
-  std::string err;
-  if (!ParseArgs(argc, argv, a, err) || a.help || a.seq.empty() || a.calib.empty()) {
-    std::fprintf(a.help ? stdout : stderr,
-                 "%s%susage: ballvision eval SEQ --calib FILE [--lut FILE] [--plots DIR]\n"
-                 "       [--predict-ms N (200)] [--at-ms T (prediction plot start)]\n"
-                 "       [--bounce-factor B (0.7)] [--out states.csv] [--annotate DIR]\n",
-                 err.c_str(), err.empty() ? "" : "\n");
-    return a.help ? 0 : 2;
-  }
+// truth.csv, and grid.csv when the sequence is the static grid (`grid` left empty otherwise).
+bool LoadEvalTruth(const std::string& seq, std::map<uint64_t, Truth>& truth,
+                   std::vector<GridRow>& grid, bool& is_grid) {
   namespace fs = std::filesystem;
-  CsvTable grid_csv;
-  std::map<uint64_t, Truth> truth;
-  if (!ReadTruth((fs::path(a.seq) / "truth.csv").string(), truth, err)) {
+  std::string err;
+  if (!ReadTruth((fs::path(seq) / "truth.csv").string(), truth, err)) {
     std::fprintf(stderr, "ballvision eval: %s (eval needs ground truth)\n", err.c_str());
-    return 1;
+    return false;
   }
-  const std::string grid_path = (fs::path(a.seq) / "grid.csv").string();
-  const bool is_grid = fs::exists(grid_path);
-  if (is_grid && !(CheckGridCsv(grid_path, err) && ReadCsv(grid_path, grid_csv, err))) {
+  const std::string grid_path = (fs::path(seq) / "grid.csv").string();
+  is_grid = fs::exists(grid_path);
+  if (is_grid && !ReadGridCsv(grid_path, grid, err)) {
     std::fprintf(stderr, "ballvision eval: %s\n", err.c_str());
-    return 1;
+    return false;
   }
-  if (a.predict_ms < 0) a.predict_ms = 200;
-  Setup s;
-  if (!Prepare(a, "eval", s)) return 1;
-  if (!a.plots.empty()) {
-    std::error_code ec;
-    fs::create_directories(a.plots, ec);
-  }
+  return true;
+}
 
-  // Prediction made at the chosen time (paper Fig. 5 right): sampled from the filter.
-  std::vector<double> pred_t, pred_z;
-  double at_s = a.at_ms >= 0 ? a.at_ms / 1000.0 : -1;
-  if (at_s < 0 && !s.seq.entries.empty()) {
-    at_s = (s.seq.entries.front().t_us +
-            (s.seq.entries.back().t_us - s.seq.entries.front().t_us) / 3) *
-           1e-6;
+// The data behind the figures, for tools/python/plot_ball_eval.py.
+bool WritePlotData(const std::string& dir, const std::vector<FrameRecord>& recs,
+                   const Prediction& pred) {
+  SafeOutput m, pr;
+  std::string e2;
+  if (!m.Open(dir + "/measurements.csv", e2) || !pr.Open(dir + "/prediction.csv", e2)) {
+    std::fprintf(stderr, "ballvision eval: %s\n", e2.c_str());
+    return false;
   }
-  bool sampled = false;
-  RunSettings rs;
-  rs.progress = s.seq.entries.size() >= 30;
-  rs.reset_each_frame = is_grid || a.stills;
-  rs.annotate_dir = a.annotate;
-  rs.on_frame = [&](const Pipeline& p, const FrameRecord& r) {
-    if (sampled || r.state.t_us * 1e-6 + 1e-6 < at_s || !r.state.found) return;
-    sampled = true;
-    for (int k = 0; k <= 200; ++k) {
-      const uint64_t t = r.state.t_us + static_cast<uint64_t>(k) * 10000;
-      Eigen::Vector3f pp, vv;
-      BallMode m;
-      if (p.filter().StateAt(t, pp, vv, m)) {
-        pred_t.push_back(t * 1e-6);
-        pred_z.push_back(pp.z());
-      }
+  m << "index,t_us,kind,mx,my,mz,z_valid,gx,gy,gz\n";
+  for (const auto& r : recs) {
+    m << r.index << "," << r.state.t_us << "," << MeasKind(r.state) << ",";
+    if (r.meas.valid) {
+      m << r.meas.p_m.x() << "," << r.meas.p_m.y() << "," << r.meas.p_m.z() << ","
+        << (r.meas.z_valid ? 1 : 0);
+    } else {
+      m << ",,,";
     }
-  };
-  std::vector<FrameRecord> recs;
-  InstallInterruptHandlers();
-  if (!RunSequence(s.seq, *s.pipeline, rs, recs, err)) {
-    std::fprintf(stderr, "ballvision eval: %s\n", err.c_str());
-    return 1;
+    m << ",";
+    if (r.meas.omni_ground_valid) {
+      m << r.meas.omni_ground_m.x() << "," << r.meas.omni_ground_m.y() << ","
+        << r.meas.omni_ground_m.z();
+    } else {
+      m << ",,";
+    }
+    m << "\n";
   }
-  if (!a.out.empty() && !WriteStates(a.out, recs, true, err)) {
-    std::fprintf(stderr, "ballvision eval: %s\n", err.c_str());
-    return 1;
+  pr << "t_s,z\n";
+  for (size_t i = 0; i < pred.t_s.size(); ++i) pr << pred.t_s[i] << "," << pred.z[i] << "\n";
+  if (!m.Commit(e2) || !pr.Commit(e2)) {
+    std::fprintf(stderr, "ballvision eval: %s\n", e2.c_str());
+    return false;
   }
+  if (!WriteStates(dir + "/states.csv", recs, true, e2)) {
+    std::fprintf(stderr, "ballvision eval: %s\n", e2.c_str());
+  }
+  return true;
+}
 
-  if (!a.plots.empty()) {
-    // Data behind the figures, for tools/python/plot_ball_eval.py.
-    SafeOutput m, pr;
-    std::string e2;
-    if (!m.Open(a.plots + "/measurements.csv", e2) || !pr.Open(a.plots + "/prediction.csv", e2)) {
-      std::fprintf(stderr, "ballvision eval: %s\n", e2.c_str());
-      return 1;
-    }
-    m << "index,t_us,kind,mx,my,mz,z_valid,gx,gy,gz\n";
-    for (const auto& r : recs) {
-      m << r.index << "," << r.state.t_us << "," << MeasKind(r.state) << ",";
-      if (r.meas.valid) {
-        m << r.meas.p_m.x() << "," << r.meas.p_m.y() << "," << r.meas.p_m.z() << ","
-          << (r.meas.z_valid ? 1 : 0);
-      } else {
-        m << ",,,";
-      }
-      m << ",";
-      if (r.meas.omni_ground_valid) {
-        m << r.meas.omni_ground_m.x() << "," << r.meas.omni_ground_m.y() << ","
-          << r.meas.omni_ground_m.z();
-      } else {
-        m << ",,";
-      }
-      m << "\n";
-    }
-    pr << "t_s,z\n";
-    for (size_t i = 0; i < pred_t.size(); ++i) pr << pred_t[i] << "," << pred_z[i] << "\n";
-    if (!m.Commit(e2) || !pr.Commit(e2)) {
-      std::fprintf(stderr, "ballvision eval: %s\n", e2.c_str());
-      return 1;
-    }
-    if (!WriteStates(a.plots + "/states.csv", recs, true, e2)) {
-      std::fprintf(stderr, "ballvision eval: %s\n", e2.c_str());
-    }
-  }
-
-  // Overall: detection and state error.
+// Detection and state error, then the raw measurements (before the filter).
+void PrintOverall(const std::string& seq, const std::vector<FrameRecord>& recs,
+                  const std::map<uint64_t, Truth>& truth) {
   int with_truth = 0, found = 0, tri = 0;
   std::vector<double> err_state;
   for (const auto& r : recs) {
@@ -490,59 +464,83 @@ int CmdEval(int argc, char** argv) {
     err_state.push_back(Dist3(r.state, *t));
   }
   std::printf("%s: %zu frames, %d with a ball in truth, state found in %d, triangulated in %d\n",
-              a.seq.c_str(), recs.size(), with_truth, found, tri);
+              seq.c_str(), recs.size(), with_truth, found, tri);
   if (!err_state.empty()) {
     std::printf("state 3D error: median %.2f cm, p90 %.2f cm, max %.2f cm\n",
                 Median(err_state) * 100, Percentile(err_state, 0.9) * 100,
                 Percentile(err_state, 1.0) * 100);
   }
-  {
-    // Raw measurements (before the filter): 3D error and mean offset per axis.
-    std::vector<double> e;
-    double sx = 0, sy = 0, sz = 0;
-    for (const auto& r : recs) {
-      const Truth* t = TruthAt(truth, r.state.t_us);
-      if (!t || !r.meas.valid || !r.meas.z_valid) continue;
-      e.push_back(Dist3(r.meas.p_m, *t));
-      sx += r.meas.p_m.x() - t->x;
-      sy += r.meas.p_m.y() - t->y;
-      sz += r.meas.p_m.z() - t->z;
-    }
-    if (!e.empty()) {
-      const double n = static_cast<double>(e.size());
-      std::printf(
-          "measurement 3D error: median %.2f cm, p90 %.2f cm (n=%zu); mean offset x %+.2f "
-          "y %+.2f z %+.2f cm\n",
-          Median(e) * 100, Percentile(e, 0.9) * 100, e.size(), sx / n * 100, sy / n * 100,
-          sz / n * 100);
-    }
+  std::vector<double> e;
+  double sx = 0, sy = 0, sz = 0;
+  for (const auto& r : recs) {
+    const Truth* t = TruthAt(truth, r.state.t_us);
+    if (!t || !r.meas.valid || !r.meas.z_valid) continue;
+    e.push_back(Dist3(r.meas.p_m, *t));
+    sx += r.meas.p_m.x() - t->x;
+    sy += r.meas.p_m.y() - t->y;
+    sz += r.meas.p_m.z() - t->z;
   }
-  if (InterruptSignal()) ReportInterrupt("ballvision eval");
-  if (is_grid) {
-    EvalGrid(a, grid_csv, recs, truth);
-    return InterruptSignal() ? InterruptExitCode() : 0;
+  if (!e.empty()) {
+    const double n = static_cast<double>(e.size());
+    std::printf(
+        "measurement 3D error: median %.2f cm, p90 %.2f cm (n=%zu); mean offset x %+.2f "
+        "y %+.2f z %+.2f cm\n",
+        Median(e) * 100, Percentile(e, 0.9) * 100, e.size(), sx / n * 100, sy / n * 100,
+        sz / n * 100);
   }
+}
 
-  // Dynamic scenes: prediction errors.
-  std::vector<double> bounces;
-  {
-    std::ifstream f(fs::path(a.seq) / "scene_extra.json");
-    if (f) {
-      try {
-        const auto j = nlohmann::json::parse(f);
-        if (j.contains("physics") && j["physics"].contains("bounces")) {
-          for (const auto& b : j["physics"]["bounces"])
-            bounces.push_back(b.at("t_s").get<double>());
-        }
-      } catch (const std::exception& e) {
-        std::fprintf(stderr, "scene_extra.json: %s (bounce table skipped)\n", e.what());
-      }
-    }
+// physics.bounces[].t_s of the renderer's scene_extra.json; none when the file has none.
+bool ParseBounces(const nlohmann::json& j, const std::string& path, std::vector<double>& out,
+                  std::string& error) {
+  if (!j.is_object() || !j.contains("physics")) return true;
+  StrictObject physics(j.at("physics"), path, "physics");
+  const nlohmann::json* list = physics.IsObject() ? physics.Child("bounces", false) : nullptr;
+  if (!physics.error().empty()) {
+    error = physics.error();
+    return false;
   }
-  const uint64_t ahead_us = static_cast<uint64_t>(a.predict_ms) * 1000u;
+  if (!list) return true;
+  if (!list->is_array()) {
+    error = path + ": physics.bounces: expected an array";
+    return false;
+  }
+  for (size_t i = 0; i < list->size(); ++i) {
+    StrictObject b((*list)[i], path, "physics.bounces[" + std::to_string(i) + "]");
+    double t = 0;
+    if (!b.IsObject() || !b.Number("t_s", t, 0, 1e9)) {
+      error = b.error();
+      return false;
+    }
+    out.push_back(t);
+  }
+  return true;
+}
+
+// The floor contacts of a rendered sequence (none without scene_extra.json; a malformed file
+// skips the table with a message).
+std::vector<double> ReadBounces(const std::string& seq) {
+  const std::string path = (std::filesystem::path(seq) / "scene_extra.json").string();
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) return {};
+  nlohmann::json j;
+  std::string error;
+  std::vector<double> bounces;
+  if (!ReadJsonFile(path, j, error) || !ParseBounces(j, path, bounces, error)) {
+    std::fprintf(stderr, "%s (bounce table skipped)\n", error.c_str());
+    return {};
+  }
+  return bounces;
+}
+
+// The position predicted `predict_ms` ahead against the truth then, for frames in flight.
+void PrintPredictionErrors(int predict_ms, const std::vector<FrameRecord>& recs,
+                           const std::map<uint64_t, Truth>& truth,
+                           const std::vector<double>& bounces) {
+  const uint64_t ahead_us = static_cast<uint64_t>(predict_ms) * 1000u;
   std::vector<double> e_all, e_nobounce;
   std::printf("\nPosition predicted %d ms ahead vs truth (frames with the ball in flight)\n",
-              a.predict_ms);
+              predict_ms);
   std::printf("%8s %-9s %-5s | %8s %8s %8s | %8s\n", "t_s", "mode", "kind", "pred_x", "pred_y",
               "pred_z", "err_cm");
   for (const auto& r : recs) {
@@ -564,7 +562,7 @@ int CmdEval(int argc, char** argv) {
   }
   if (!e_all.empty()) {
     std::printf("prediction error %d ms ahead: median %.2f cm, p90 %.2f cm, max %.2f cm (n=%zu)\n",
-                a.predict_ms, Median(e_all) * 100, Percentile(e_all, 0.9) * 100,
+                predict_ms, Median(e_all) * 100, Percentile(e_all, 0.9) * 100,
                 Percentile(e_all, 1.0) * 100, e_all.size());
   }
   if (!e_nobounce.empty()) {
@@ -573,92 +571,242 @@ int CmdEval(int argc, char** argv) {
         Median(e_nobounce) * 100, Percentile(e_nobounce, 0.9) * 100,
         Percentile(e_nobounce, 1.0) * 100, e_nobounce.size());
   }
+}
+
+// Per true floor contact, the contact the filter predicted 1 s and 0.5 s before it.
+void PrintContactPredictions(const std::vector<FrameRecord>& recs,
+                             const std::vector<double>& bounces) {
+  std::printf("\nFloor contacts predicted ahead (goal: 1 s ahead within 0.03 s)\n");
+  std::printf("%10s | %12s %12s %10s | %12s %12s %10s\n", "truth_t_s", "pred@-1s", "made_at",
+              "err_s", "pred@-0.5s", "made_at", "err_s");
+  const double t_first = recs.empty() ? 0 : recs.front().state.t_us * 1e-6;
+  const double t_last = recs.empty() ? 0 : recs.back().state.t_us * 1e-6;
+  for (double b : bounces) {
+    if (b > t_last + 0.05) continue;
+    std::printf("%10.3f |", b);
+    for (double lead : {1.0, 0.5}) {
+      const double want = b - lead;
+      const FrameRecord* best = nullptr;
+      for (const auto& r : recs) {
+        const double t = r.state.t_us * 1e-6;
+        if (t <= want + 1e-6 && (!best || t > best->state.t_us * 1e-6)) best = &r;
+      }
+      if (want < t_first - 1e-6 || !best || best->contacts_us.empty()) {
+        std::printf(" %12s %12s %10s |", "-", "-", "-");
+        continue;
+      }
+      double pb = NAN;
+      for (uint64_t c : best->contacts_us) {
+        if (!std::isfinite(pb) || std::fabs(c * 1e-6 - b) < std::fabs(pb - b)) pb = c * 1e-6;
+      }
+      std::printf(" %12.3f %12.3f %10.3f |", pb, best->state.t_us * 1e-6, pb - b);
+    }
+    std::printf("\n");
+  }
+}
+
+// Fig. 5 of a captured sequence: the truth where truth.csv has the ball.
+void PlotEvalFig5(const std::string& dir, const std::vector<FrameRecord>& recs,
+                  const std::map<uint64_t, Truth>& truth, double at_s, const Prediction& pred) {
+  std::vector<double> t_s, z, vz;
+  for (const auto& r : recs) {
+    const Truth* t = TruthAt(truth, r.state.t_us);
+    if (!t) continue;
+    t_s.push_back(r.state.t_us * 1e-6);
+    z.push_back(t->z);
+    vz.push_back(t->vz);
+  }
+  const std::vector<PlotSeries> f5 = Fig5Series(t_s, z, vz, recs);
+  PlotSeries pz{"prediction made at " + std::to_string(at_s).substr(0, 5) + " s",
+                pred.t_s,
+                pred.z,
+                30,
+                60,
+                220};
+  pz.style = PlotSeries::kDashed;
+  std::string err;
+  const std::string p1 = dir + "/fig5_height_velocity.png";
+  const std::string p2 = dir + "/fig5_prediction.png";
+  if (PlotPng(p1, "Height [m] and vertical velocity [m/s]", "time [s]", "z [m], vz [m/s]", f5,
+              err) &&
+      PlotPng(p2, "Height predicted into the future", "time [s]", "z [m]", {f5[0], f5[1], pz},
+              err)) {
+    std::printf("wrote %s, %s\n", p1.c_str(), p2.c_str());
+  } else {
+    std::fprintf(stderr, "%s\n", err.c_str());
+  }
+}
+
+}  // namespace
+
+int CmdEval(int argc, char** argv) {
+  Args a;
+  ArgParser p("ballvision eval", kEvalUsage);
+  PipelineOptions(p, a);
+  p.Text("--plots", a.plots).Number("--at-ms", 0, 1e6, a.at_ms);
+  if (const int rc = p.Parse(argc, argv); rc >= 0) return rc;
+  std::vector<GridRow> grid;
+  std::map<uint64_t, Truth> truth;
+  bool is_grid = false;
+  if (!LoadEvalTruth(a.seq, truth, grid, is_grid)) return 1;
+  if (a.predict_ms < 0) a.predict_ms = 200;
+  Setup s;
+  if (!Prepare(a, "eval", s)) return 1;
+  if (!a.plots.empty()) {
+    std::error_code ec;
+    std::filesystem::create_directories(a.plots, ec);
+  }
+
+  // The prediction made at the chosen time (default a third into the sequence).
+  Prediction pred;
+  double at_s = a.at_ms >= 0 ? a.at_ms / 1000.0 : -1;
+  if (at_s < 0 && !s.seq.entries.empty()) {
+    at_s = (s.seq.entries.front().t_us +
+            (s.seq.entries.back().t_us - s.seq.entries.front().t_us) / 3) *
+           1e-6;
+  }
+  bool sampled = false;
+  RunSettings rs;
+  rs.progress = s.seq.entries.size() >= 30;
+  rs.reset_each_frame = is_grid || a.stills;
+  rs.annotate_dir = a.annotate;
+  rs.on_frame = [&](const Pipeline& pl, const FrameRecord& r) {
+    if (sampled || r.state.t_us * 1e-6 + 1e-6 < at_s || !r.state.found) return;
+    sampled = true;
+    pred = SamplePrediction(pl.filter(), r.state.t_us, 200);
+  };
+  std::vector<FrameRecord> recs;
+  std::string err;
+  InstallInterruptHandlers();
+  if (!RunSequence(s.seq, *s.pipeline, rs, recs, err) ||
+      (!a.out.empty() && !WriteStates(a.out, recs, true, err))) {
+    std::fprintf(stderr, "ballvision eval: %s\n", err.c_str());
+    return 1;
+  }
+  if (!a.plots.empty() && !WritePlotData(a.plots, recs, pred)) return 1;
+
+  PrintOverall(a.seq, recs, truth);
+  if (InterruptSignal()) ReportInterrupt("ballvision eval");
+  if (is_grid) {
+    EvalGrid(a, grid, recs, truth);
+    return InterruptSignal() ? InterruptExitCode() : 0;
+  }
+  const std::vector<double> bounces = ReadBounces(a.seq);
+  PrintPredictionErrors(a.predict_ms, recs, truth, bounces);
   std::printf("filter restitution b: configured %.2f, estimated at the end %.2f\n",
               s.config.filter.bounce_factor, s.pipeline->filter().bounce_factor());
-  if (!bounces.empty()) {
-    std::printf("\nFloor contacts predicted ahead (goal: 1 s ahead within 0.03 s)\n");
-    std::printf("%10s | %12s %12s %10s | %12s %12s %10s\n", "truth_t_s", "pred@-1s", "made_at",
-                "err_s", "pred@-0.5s", "made_at", "err_s");
-    const double t_first = recs.empty() ? 0 : recs.front().state.t_us * 1e-6;
-    const double t_last = recs.empty() ? 0 : recs.back().state.t_us * 1e-6;
-    for (double b : bounces) {
-      if (b > t_last + 0.05) continue;
-      std::printf("%10.3f |", b);
-      for (double lead : {1.0, 0.5}) {
-        const double want = b - lead;
-        const FrameRecord* best = nullptr;
-        for (const auto& r : recs) {
-          const double t = r.state.t_us * 1e-6;
-          if (t <= want + 1e-6 && (!best || t > best->state.t_us * 1e-6)) best = &r;
-        }
-        if (want < t_first - 1e-6 || !best || best->contacts_us.empty()) {
-          std::printf(" %12s %12s %10s |", "-", "-", "-");
-          continue;
-        }
-        double pb = NAN;
-        for (uint64_t c : best->contacts_us) {
-          if (!std::isfinite(pb) || std::fabs(c * 1e-6 - b) < std::fabs(pb - b)) pb = c * 1e-6;
-        }
-        std::printf(" %12.3f %12.3f %10.3f |", pb, best->state.t_us * 1e-6, pb - b);
-      }
-      std::printf("\n");
-    }
-  }
-  if (!a.plots.empty()) {
-    PlotSeries zt{"true height", {}, {}, 0, 160, 0}, ze{"estimated height", {}, {}, 220, 30, 30};
-    PlotSeries vt{"true vz", {}, {}, 240, 150, 0}, ve{"estimated vz", {}, {}, 30, 60, 220};
-    ze.style = PlotSeries::kLinePoints;
-    ve.style = PlotSeries::kLinePoints;
-    for (const auto& r : recs) {
-      const Truth* t = TruthAt(truth, r.state.t_us);
-      const double ts = r.state.t_us * 1e-6;
-      if (t) {
-        zt.x.push_back(ts);
-        zt.y.push_back(t->z);
-        vt.x.push_back(ts);
-        vt.y.push_back(t->vz);
-      }
-      ze.x.push_back(ts);
-      ze.y.push_back(r.state.found ? r.state.z_m : NAN);
-      ve.x.push_back(ts);
-      ve.y.push_back(r.state.found ? r.state.vz_mps : NAN);
-    }
-    PlotSeries pz{"prediction made at " + std::to_string(at_s).substr(0, 5) + " s",
-                  pred_t,
-                  pred_z,
-                  30,
-                  60,
-                  220};
-    pz.style = PlotSeries::kDashed;
-    const std::string p1 = a.plots + "/fig5_height_velocity.png";
-    const std::string p2 = a.plots + "/fig5_prediction.png";
-    if (PlotPng(p1, "Height [m] and vertical velocity [m/s]", "time [s]", "z [m], vz [m/s]",
-                {zt, ze, vt, ve}, err) &&
-        PlotPng(p2, "Height predicted into the future", "time [s]", "z [m]", {zt, ze, pz}, err)) {
-      std::printf("wrote %s, %s\n", p1.c_str(), p2.c_str());
-    } else {
-      std::fprintf(stderr, "%s\n", err.c_str());
-    }
-  }
+  if (!bounces.empty()) PrintContactPredictions(recs, bounces);
+  if (!a.plots.empty()) PlotEvalFig5(a.plots, recs, truth, at_s, pred);
   return InterruptSignal() ? InterruptExitCode() : 0;
 }
 
+namespace {
+
+constexpr double kDemoBounceFactor = 0.7;
+constexpr double kDemoPredictFromS = 0.9;
+
+struct DemoLobResult {
+  std::vector<FrameRecord> recs;
+  std::vector<double> errs;        // 3D state error where found (m)
+  std::vector<double> t_s, z, vz;  // the truth per frame
+  Prediction pred;
+};
+
+// The lob: 30 Hz frame pairs straight into Pipeline::Process; every third frame printed.
+bool RunDemoLob(Pipeline& pipeline, const DemoRenderer& renderer, int frames, DemoLobResult& out) {
+  std::printf("%5s %7s | %-8s %-5s | %7s %7s %7s | %7s %7s %7s | %7s %6s | %8s\n", "frame", "t_s",
+              "mode", "meas", "x", "y", "z", "true_x", "true_y", "true_z", "vz", "err_cm",
+              "bounce_s");
+  std::vector<uint8_t> omni, persp;
+  for (int k = 0; k < frames; ++k) {
+    const uint64_t t_us = static_cast<uint64_t>(std::llround(k * 1e6 / 30.0));
+    const DemoTruth tr = DemoLob(t_us * 1e-6, kDemoBounceFactor);
+    renderer.Render(tr.p, static_cast<uint32_t>(k + 1), omni, persp);
+    FrameInput in;
+    in.t_us = t_us;
+    in.omni = MakeYuyvImage(omni.data(), kFrameWidth, kFrameHeight);
+    in.persp = MakeYuyvImage(persp.data(), kFrameWidth, kFrameHeight);
+    FrameRecord r;
+    r.index = k;
+    const auto t0 = std::chrono::steady_clock::now();
+    const Status st = pipeline.Process(in, r.state);
+    r.state.proc_us = static_cast<uint32_t>(
+        std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::steady_clock::now() - t0)
+            .count());
+    if (!st.ok()) {
+      std::fprintf(stderr, "ballvision demo: frame %d: %s\n", k, st.message());
+      return false;
+    }
+    const BallState& s = r.state;
+    const double e = std::sqrt((s.x_m - tr.p.x()) * (s.x_m - tr.p.x()) +
+                               (s.y_m - tr.p.y()) * (s.y_m - tr.p.y()) +
+                               (s.z_m - tr.p.z()) * (s.z_m - tr.p.z()));
+    if (s.found) out.errs.push_back(e);
+    if (k % 3 == 0 || k + 1 == frames) {
+      char bounce[16] = "-";
+      if (s.flags & kFlagHasBounce)
+        std::snprintf(bounce, sizeof bounce, "%.3f", s.t_bounce_us * 1e-6);
+      std::printf(
+          "%5d %7.3f | %-8s %-5s | %7.3f %7.3f %7.3f | %7.3f %7.3f %7.3f | %7.2f %6.1f | %8s\n", k,
+          t_us * 1e-6, BallModeName(s.mode), MeasKind(s), s.x_m, s.y_m, s.z_m, tr.p.x(), tr.p.y(),
+          tr.p.z(), s.vz_mps, s.found ? e * 100 : NAN, bounce);
+    }
+    out.t_s.push_back(t_us * 1e-6);
+    out.z.push_back(tr.p.z());
+    out.vz.push_back(tr.v.z());
+    if (out.pred.t_s.empty() && t_us * 1e-6 + 1e-6 >= kDemoPredictFromS && s.found) {
+      out.pred = SamplePrediction(pipeline.filter(), t_us, 150);
+    }
+    out.recs.push_back(r);
+  }
+  return true;
+}
+
+// The static grid (Fig. 4 set-up): unrelated stills, the measurement against the truth, and
+// the omni-only "2D" estimate; prints the table.
+Fig4Cells RunDemoGrid(Pipeline& pipeline, const DemoRenderer& renderer) {
+  std::printf("\nstatic grid: 3D error [cm] of the measurement (2D omni-only in brackets)\n%6s",
+              "dist_m");
+  const float heights[3] = {0.11f, 0.21f, 0.41f};
+  for (float h : heights) std::printf("   z=%.2f m      ", h);
+  std::printf("\n");
+  Fig4Cells cells;
+  std::vector<uint8_t> omni, persp;
+  for (int di = 1; di <= 11; ++di) {
+    const float d = 0.5f * di;
+    std::printf("%6.2f", d);
+    for (int hi = 0; hi < 3; ++hi) {
+      const Eigen::Vector3f ball(0.f, d, heights[hi]);
+      renderer.Render(ball, static_cast<uint32_t>(1000 + di * 3 + hi), omni, persp);
+      FrameInput in;
+      in.t_us = static_cast<uint64_t>(10000000 + (di * 3 + hi) * 33333);
+      in.omni = MakeYuyvImage(omni.data(), kFrameWidth, kFrameHeight);
+      in.persp = MakeYuyvImage(persp.data(), kFrameWidth, kFrameHeight);
+      pipeline.ResetTrack();
+      BallState s;
+      // Not checked (as it never was): the row shows the measurement the frame left.
+      (void)pipeline.Process(in, s);
+      const MeasurementInfo& m = pipeline.last_measurement();
+      const double e3 = m.valid ? (m.p_m - ball).norm() : NAN;
+      const double e2 = m.omni_ground_valid ? (m.omni_ground_m - ball).norm() : NAN;
+      cells[heights[hi]].push_back({d, e3 * 100, e2 * 100});
+      std::printf("  %5.1f %-4s (%5.1f)", e3 * 100, MeasKind(s), e2 * 100);
+    }
+    std::printf("\n");
+  }
+  return cells;
+}
+
+}  // namespace
+
 int CmdDemo(int argc, char** argv) {
   Args a;
-  std::string err;
-  if (!ParseArgs(argc, argv, a, err) || a.help) {
-    std::fprintf(a.help ? stdout : stderr,
-                 "%s%susage: ballvision demo [--out DIR (./demo_out)] [--frames N (75)]\n"
-                 "Draws a bouncing lob and a static grid through the built-in reference-rig\n"
-                 "calibration, runs the full pipeline, prints the ball states and writes\n"
-                 "states.csv and the plots (Fig. 4 and Fig. 5 style) to DIR.\n",
-                 err.c_str(), err.empty() ? "" : "\n");
-    return a.help ? 0 : 2;
-  }
-  namespace fs = std::filesystem;
+  ArgParser p("ballvision demo", kDemoUsage);
+  p.Text("--out", a.out).Int("--frames", 10, 1000000, a.frames);
+  if (const int rc = p.Parse(argc, argv); rc >= 0) return rc;
   const std::string dir = a.out.empty() ? "demo_out" : a.out;
   std::error_code ec;
-  fs::create_directories(dir, ec);
+  std::filesystem::create_directories(dir, ec);
   if (ec) {
     std::fprintf(stderr, "ballvision demo: cannot create %s: %s\n", dir.c_str(),
                  ec.message().c_str());
@@ -670,166 +818,49 @@ int CmdDemo(int argc, char** argv) {
   FillRuleLut(*lut);
   auto pipeline = std::make_unique<Pipeline>();
   PipelineConfig config;
-  Status st = pipeline->Init(cal, *lut, config);
+  const Status st = pipeline->Init(cal, *lut, config);
   if (!st.ok()) {
     std::fprintf(stderr, "ballvision demo: pipeline: %s\n", st.message());
     return 1;
   }
   const DemoRenderer renderer(cal);
-  constexpr double kB = 0.7;
   std::vector<double> bounce_times;
-  DemoLob(100.0, kB, &bounce_times);
+  DemoLob(100.0, kDemoBounceFactor, &bounce_times);
 
-  // 1. The lob: 30 Hz frame pairs straight into Pipeline::Process.
   std::printf(
       "ballvision demo: a lob that bounces, drawn with the built-in calibration of the\n"
       "reference rig, through the full pipeline (front end, rays, triangulation, filter)\n\n");
-  std::printf("%5s %7s | %-8s %-5s | %7s %7s %7s | %7s %7s %7s | %7s %6s | %8s\n", "frame", "t_s",
-              "mode", "meas", "x", "y", "z", "true_x", "true_y", "true_z", "vz", "err_cm",
-              "bounce_s");
-  std::vector<uint8_t> omni, persp;
-  std::vector<FrameRecord> recs;
-  std::vector<double> zt_t, zt_z, vt_z;
-  std::vector<double> pred_t, pred_z;
-  const double at_s = 0.9;
-  std::vector<double> errs;
-  for (int k = 0; k < a.frames; ++k) {
-    const uint64_t t_us = static_cast<uint64_t>(std::llround(k * 1e6 / 30.0));
-    const DemoTruth tr = DemoLob(t_us * 1e-6, kB);
-    renderer.Render(tr.p, static_cast<uint32_t>(k + 1), omni, persp);
-    FrameInput in;
-    in.t_us = t_us;
-    in.omni = MakeYuyvImage(omni.data(), kFrameWidth, kFrameHeight);
-    in.persp = MakeYuyvImage(persp.data(), kFrameWidth, kFrameHeight);
-    FrameRecord r;
-    r.index = k;
-    const auto t0 = std::chrono::steady_clock::now();
-    st = pipeline->Process(in, r.state);
-    r.state.proc_us = static_cast<uint32_t>(
-        std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::steady_clock::now() - t0)
-            .count());
-    if (!st.ok()) {
-      std::fprintf(stderr, "ballvision demo: frame %d: %s\n", k, st.message());
-      return 1;
-    }
-    const BallState& s = r.state;
-    const double e = std::sqrt((s.x_m - tr.p.x()) * (s.x_m - tr.p.x()) +
-                               (s.y_m - tr.p.y()) * (s.y_m - tr.p.y()) +
-                               (s.z_m - tr.p.z()) * (s.z_m - tr.p.z()));
-    if (s.found) errs.push_back(e);
-    if (k % 3 == 0 || k + 1 == a.frames) {
-      char bounce[16] = "-";
-      if (s.flags & kFlagHasBounce)
-        std::snprintf(bounce, sizeof bounce, "%.3f", s.t_bounce_us * 1e-6);
-      std::printf(
-          "%5d %7.3f | %-8s %-5s | %7.3f %7.3f %7.3f | %7.3f %7.3f %7.3f | %7.2f %6.1f | %8s\n", k,
-          t_us * 1e-6, BallModeName(s.mode), MeasKind(s), s.x_m, s.y_m, s.z_m, tr.p.x(), tr.p.y(),
-          tr.p.z(), s.vz_mps, s.found ? e * 100 : NAN, bounce);
-    }
-    zt_t.push_back(t_us * 1e-6);
-    zt_z.push_back(tr.p.z());
-    vt_z.push_back(tr.v.z());
-    if (pred_t.empty() && t_us * 1e-6 + 1e-6 >= at_s && s.found) {
-      for (int j = 0; j <= 150; ++j) {
-        Eigen::Vector3f pp, vv;
-        BallMode m;
-        const uint64_t t = t_us + static_cast<uint64_t>(j) * 10000;
-        if (pipeline->filter().StateAt(t, pp, vv, m)) {
-          pred_t.push_back(t * 1e-6);
-          pred_z.push_back(pp.z());
-        }
-      }
-    }
-    recs.push_back(r);
-  }
+  DemoLobResult lob;
+  if (!RunDemoLob(*pipeline, renderer, a.frames, lob)) return 1;
   std::printf("\ntrue floor contacts:");
   for (double b : bounce_times) {
     if (b < a.frames / 30.0) std::printf(" %.3f", b);
   }
   std::printf(" s; filter restitution estimate b = %.2f (true %.2f)\n",
-              pipeline->filter().bounce_factor(), kB);
-  if (!errs.empty()) {
-    std::printf("state 3D error over %zu frames: median %.1f cm, p90 %.1f cm\n", errs.size(),
-                Median(errs) * 100, Percentile(errs, 0.9) * 100);
+              pipeline->filter().bounce_factor(), kDemoBounceFactor);
+  if (!lob.errs.empty()) {
+    std::printf("state 3D error over %zu frames: median %.1f cm, p90 %.1f cm\n", lob.errs.size(),
+                Median(lob.errs) * 100, Percentile(lob.errs, 0.9) * 100);
   }
-  if (!WriteStates(dir + "/states.csv", recs, true, err)) {
+  std::string err;
+  if (!WriteStates(dir + "/states.csv", lob.recs, true, err)) {
     std::fprintf(stderr, "ballvision demo: %s\n", err.c_str());
     return 1;
   }
+  const Fig4Cells grid = RunDemoGrid(*pipeline, renderer);
 
-  // 2. Static grid (Fig. 4 set-up): unrelated stills, measurement vs truth, and the omni-only
-  // "2D" estimate.
-  std::vector<PlotSeries> fig4;
-  const uint8_t colors[3][3] = {{200, 30, 30}, {30, 140, 30}, {30, 60, 200}};
-  std::printf("\nstatic grid: 3D error [cm] of the measurement (2D omni-only in brackets)\n%6s",
-              "dist_m");
-  const float heights[3] = {0.11f, 0.21f, 0.41f};
-  for (float h : heights) std::printf("   z=%.2f m      ", h);
-  std::printf("\n");
-  std::vector<double> err_grid[3][2];
-  std::vector<double> dists;
-  for (int di = 1; di <= 11; ++di) {
-    const float d = 0.5f * di;
-    dists.push_back(d);
-    std::printf("%6.2f", d);
-    for (int hi = 0; hi < 3; ++hi) {
-      const Eigen::Vector3f ball(0.f, d, heights[hi]);
-      renderer.Render(ball, static_cast<uint32_t>(1000 + di * 3 + hi), omni, persp);
-      FrameInput in;
-      in.t_us = static_cast<uint64_t>(10000000 + (di * 3 + hi) * 33333);
-      in.omni = MakeYuyvImage(omni.data(), kFrameWidth, kFrameHeight);
-      in.persp = MakeYuyvImage(persp.data(), kFrameWidth, kFrameHeight);
-      pipeline->ResetTrack();
-      BallState s;
-      st = pipeline->Process(in, s);
-      const MeasurementInfo& m = pipeline->last_measurement();
-      const double e3 = m.valid ? (m.p_m - ball).norm() : NAN;
-      const double e2 = m.omni_ground_valid ? (m.omni_ground_m - ball).norm() : NAN;
-      err_grid[hi][0].push_back(e3 * 100);
-      err_grid[hi][1].push_back(e2 * 100);
-      std::printf("  %5.1f %-4s (%5.1f)", e3 * 100, MeasKind(s), e2 * 100);
-    }
-    std::printf("\n");
-  }
-  for (int hi = 0; hi < 3; ++hi) {
-    char name[64];
-    PlotSeries s3, s2;
-    std::snprintf(name, sizeof name, "3D z=%.0fcm", heights[hi] * 100);
-    s3.name = name;
-    std::snprintf(name, sizeof name, "2D (omni only) z=%.0fcm", heights[hi] * 100);
-    s2.name = name;
-    s3.x = s2.x = dists;
-    s3.y = err_grid[hi][0];
-    s2.y = err_grid[hi][1];
-    s3.r = s2.r = colors[hi][0];
-    s3.g = s2.g = colors[hi][1];
-    s3.b = s2.b = colors[hi][2];
-    s3.style = PlotSeries::kLinePoints;
-    s2.style = PlotSeries::kDashed;
-    fig4.push_back(s3);
-    if (hi > 0) fig4.push_back(s2);
-  }
-  PlotSeries zt{"true height", zt_t, zt_z, 0, 160, 0};
-  PlotSeries vt{"true vz", zt_t, vt_z, 240, 150, 0};
-  PlotSeries ze{"estimated height", {}, {}, 220, 30, 30}, ve{"estimated vz", {}, {}, 30, 60, 220};
-  ze.style = ve.style = PlotSeries::kLinePoints;
-  for (const auto& r : recs) {
-    ze.x.push_back(r.state.t_us * 1e-6);
-    ze.y.push_back(r.state.found ? r.state.z_m : NAN);
-    ve.x.push_back(r.state.t_us * 1e-6);
-    ve.y.push_back(r.state.found ? r.state.vz_mps : NAN);
-  }
-  PlotSeries pz{"prediction made at 0.9 s", pred_t, pred_z, 30, 60, 220};
+  const std::vector<PlotSeries> f5 = Fig5Series(lob.t_s, lob.z, lob.vz, lob.recs);
+  PlotSeries pz{"prediction made at 0.9 s", lob.pred.t_s, lob.pred.z, 30, 60, 220};
   pz.style = PlotSeries::kDashed;
   const std::string f4 = dir + "/demo_fig4_error_vs_distance.png";
   const std::string f5a = dir + "/demo_fig5_height_velocity.png";
   const std::string f5b = dir + "/demo_fig5_prediction.png";
   if (!PlotPng(f4, "Demo: 3D error vs distance (built-in scene)", "distance [m]", "error [cm]",
-               fig4, err) ||
+               Fig4Series(grid), err) ||
       !PlotPng(f5a, "Demo lob: height [m] and vertical velocity [m/s]", "time [s]",
-               "z [m], vz [m/s]", {zt, ze, vt, ve}, err) ||
-      !PlotPng(f5b, "Demo lob: height predicted from t = 0.9 s", "time [s]", "z [m]", {zt, ze, pz},
-               err)) {
+               "z [m], vz [m/s]", f5, err) ||
+      !PlotPng(f5b, "Demo lob: height predicted from t = 0.9 s", "time [s]", "z [m]",
+               {f5[0], f5[1], pz}, err)) {
     std::fprintf(stderr, "ballvision demo: %s\n", err.c_str());
     return 1;
   }

@@ -17,13 +17,10 @@
 namespace bv::cli {
 namespace {
 
-int SeqUsage() {
-  std::fprintf(stderr,
-               "usage: ballvision seq info SEQ\n"
-               "       ballvision seq to-raw SEQ OUT_DIR [--first N] [--count M]\n"
-               "  to-raw writes OUT_DIR/frames.csv and one 640x480 .yuyv per image\n");
-  return 2;
-}
+constexpr char kSeqUsage[] =
+    "usage: ballvision seq info SEQ\n"
+    "       ballvision seq to-raw SEQ OUT_DIR [--first N] [--count M]\n"
+    "  to-raw writes OUT_DIR/frames.csv and one 640x480 .yuyv per image\n";
 
 int Info(const std::string& dir) {
   host::Sequence seq;
@@ -100,27 +97,26 @@ int ToRaw(const std::string& dir, const std::string& out_dir, size_t first, size
 }  // namespace
 
 int CmdSeq(int argc, char** argv) {
-  if (argc < 3) return SeqUsage();
-  const std::string sub = argv[1];
-  if (sub == "info" && argc == 3) return Info(argv[2]);
-  if (sub == "to-raw" && argc >= 4) {
+  const auto info = [](int ac, char** av) {
+    std::string dir;
+    ArgParser p("ballvision seq info", kSeqUsage);
+    p.Positional("SEQ", dir);
+    if (const int rc = p.Parse(ac, av); rc >= 0) return rc;
+    return Info(dir);
+  };
+  const auto to_raw = [](int ac, char** av) {
+    std::string dir, out;
     size_t first = 0, count = static_cast<size_t>(-1);
-    for (int i = 4; i < argc; ++i) {
-      const std::string a = argv[i];
-      if ((a == "--first" || a == "--count") && i + 1 < argc) {
-        std::string e;
-        if (!ArgIntAs(a, argv[++i], a == "--first" ? 0 : 1, INT64_MAX,
-                      a == "--first" ? first : count, e)) {
-          std::fprintf(stderr, "ballvision seq: %s\n", e.c_str());
-          return 2;
-        }
-      } else {
-        return SeqUsage();
-      }
-    }
-    return ToRaw(argv[2], argv[3], first, count);
-  }
-  return SeqUsage();
+    ArgParser p("ballvision seq to-raw", kSeqUsage);
+    p.Positional("SEQ", dir)
+        .Positional("OUT_DIR", out)
+        .Int("--first", 0, INT64_MAX, first)
+        .Int("--count", 1, INT64_MAX, count);
+    if (const int rc = p.Parse(ac, av); rc >= 0) return rc;
+    return ToRaw(dir, out, first, count);
+  };
+  return RunSubCommand("ballvision seq", kSeqUsage, argc, argv,
+                       {{"info", info}, {"to-raw", to_raw}});
 }
 
 }  // namespace bv::cli

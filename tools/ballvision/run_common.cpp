@@ -229,15 +229,4 @@ bool Field(const std::map<std::string, std::string>& row, const std::string& key
   return end != it->second.c_str() && std::isfinite(v);
 }
 
-double Percentile(std::vector<double> v, double p) {
-  if (v.empty()) return NAN;
-  std::sort(v.begin(), v.end());
-  const double pos = p * static_cast<double>(v.size() - 1);
-  const size_t i = static_cast<size_t>(pos);
-  const double f = pos - static_cast<double>(i);
-  return i + 1 < v.size() ? v[i] * (1 - f) + v[i + 1] * f : v[i];
-}
-
-double Median(std::vector<double> v) { return Percentile(std::move(v), 0.5); }
-
 }  // namespace bv::cli

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "core/color_lut/color_lut.h"
+#include "tools/ballvision/stats.h"
 
 namespace bv::cli {
 
@@ -39,8 +40,5 @@ struct CsvTable {
 bool ReadCsv(const std::string& path, CsvTable& out, std::string& error);
 /// Number from a field; false when missing or empty.
 bool Field(const std::map<std::string, std::string>& row, const std::string& key, double& v);
-
-double Median(std::vector<double> v);
-double Percentile(std::vector<double> v, double p);
 
 }  // namespace bv::cli
