@@ -159,8 +159,9 @@ class CaptureCli(unittest.TestCase):
             self.assertEqual(r.returncode, 2, args)
             self.assertIn(msg, r.stderr)
         r = run(src)
-        self.assertEqual((r.returncode, r.stderr.strip()),
-                         (2, "ballvision capture: --out SEQ_DIR is required"))
+        self.assertEqual(r.returncode, 2)
+        self.assertTrue(r.stderr.startswith("ballvision capture: missing --out\n"), r.stderr)
+        self.assertIn("usage: ballvision capture", r.stderr)
         out = os.path.join(self.dir, "seq")
         self.assertEqual(run(src, "--out", out).returncode, 0)
         r = run(src, "--out", out)  # would overwrite a sequence

@@ -29,21 +29,17 @@ namespace {
 
 constexpr uint32_t kRequestSeq = 1;  // sequence number of our capture request
 
-int CaptureUsage() {
-  std::fprintf(
-      stderr,
-      "usage: ballvision capture SOURCE --out SEQ_DIR [--pairs N] [--mode full|half|quarter]\n"
-      "                          [--cameras both|omni|persp] [--baud N] [--seconds S]\n"
-      "  Asks the coprocessor for the next N frame pairs (1..100, default 1: a snapshot) and\n"
-      "  writes SEQ_DIR/frames.csv (index = the device's frame counter), one .yuyv per\n"
-      "  image, capture.csv (pair index, per-camera exposure times and frame counters) and\n"
-      "  capture.json (mode, complete or not and why).\n"
-      "  Half and quarter images are scaled back to 640x480 (nearest) so `run` replays them.\n"
-      "  SOURCE: a serial device or pty, tcp:HOST:PORT, or a file / '-' holding a recorded\n"
-      "  stream (decoded only, no request sent). Exit 1 when the capture is incomplete (the\n"
-      "  pairs written are still a valid sequence; capture.json says what is missing).\n");
-  return 2;
-}
+const char* const kCaptureUsage =
+    "usage: ballvision capture SOURCE --out SEQ_DIR [--pairs N] [--mode full|half|quarter]\n"
+    "                          [--cameras both|omni|persp] [--baud N] [--seconds S]\n"
+    "  Asks the coprocessor for the next N frame pairs (1..100, default 1: a snapshot) and\n"
+    "  writes SEQ_DIR/frames.csv (index = the device's frame counter), one .yuyv per\n"
+    "  image, capture.csv (pair index, per-camera exposure times and frame counters) and\n"
+    "  capture.json (mode, complete or not and why).\n"
+    "  Half and quarter images are scaled back to 640x480 (nearest) so `run` replays them.\n"
+    "  SOURCE: a serial device or pty, tcp:HOST:PORT, or a file / '-' holding a recorded\n"
+    "  stream (decoded only, no request sent). Exit 1 when the capture is incomplete (the\n"
+    "  pairs written are still a valid sequence; capture.json says what is missing).\n";
 
 const char* ModeName(protocol::CaptureMode m) {
   switch (m) {
@@ -81,73 +77,48 @@ std::string JsonString(const std::string& s) {
 }  // namespace
 
 int CmdCapture(int argc, char** argv) {
-  if (argc < 2 || std::strcmp(argv[1], "--help") == 0) return CaptureUsage();
-  const std::string source = argv[1];
-  std::string out_dir, err;
+  std::string source, out_dir, err;
   int64_t pairs = 1;
   long baud = 921600;
   double seconds = 0;
   protocol::CaptureMode mode = protocol::CaptureMode::kFull;
   uint8_t cameras = protocol::kCaptureOmni | protocol::kCapturePersp;
-  for (int i = 2; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (i + 1 >= argc) {
-      std::fprintf(stderr, "ballvision capture: %s needs a value\n", a.c_str());
-      return CaptureUsage();
-    }
-    const std::string v = argv[++i];
-    if (a == "--out") {
-      out_dir = v;
-    } else if (a == "--pairs") {
-      if (!ArgInt("--pairs", v, 1, protocol::kMaxCapturePairs, pairs, err)) {
-        std::fprintf(stderr, "ballvision capture: %s\n", err.c_str());
-        return 2;
-      }
-    } else if (a == "--mode") {
-      if (v == "full") {
-        mode = protocol::CaptureMode::kFull;
-      } else if (v == "half") {
-        mode = protocol::CaptureMode::kHalf;
-      } else if (v == "quarter") {
-        mode = protocol::CaptureMode::kQuarter;
-      } else {
-        std::fprintf(stderr,
-                     "ballvision capture: --mode: got '%s', expected full, half or quarter\n",
-                     v.c_str());
-        return 2;
-      }
-    } else if (a == "--cameras") {
-      if (v == "both") {
-        cameras = protocol::kCaptureOmni | protocol::kCapturePersp;
-      } else if (v == "omni") {
-        cameras = protocol::kCaptureOmni;
-      } else if (v == "persp") {
-        cameras = protocol::kCapturePersp;
-      } else {
-        std::fprintf(stderr,
-                     "ballvision capture: --cameras: got '%s', expected both, omni or persp\n",
-                     v.c_str());
-        return 2;
-      }
-    } else if (a == "--baud") {
-      if (!ArgIntAs("--baud", v, 1, 4000000, baud, err)) {
-        std::fprintf(stderr, "ballvision capture: %s\n", err.c_str());
-        return 2;
-      }
-    } else if (a == "--seconds") {
-      if (!ArgNumber("--seconds", v, 0.1, 1e6, seconds, err)) {
-        std::fprintf(stderr, "ballvision capture: %s\n", err.c_str());
-        return 2;
-      }
-    } else {
-      std::fprintf(stderr, "ballvision capture: unknown option %s\n", a.c_str());
-      return CaptureUsage();
-    }
-  }
-  if (out_dir.empty()) {
-    std::fprintf(stderr, "ballvision capture: --out SEQ_DIR is required\n");
-    return 2;
-  }
+  ArgParser args("ballvision capture", kCaptureUsage);
+  args.Positional("SOURCE", source)
+      .Text("--out", out_dir)
+      .Required("--out")
+      .Int("--pairs", 1, protocol::kMaxCapturePairs, pairs)
+      .Custom("--mode",
+              [&mode](const std::string& v, std::string& error) {
+                if (v == "full") {
+                  mode = protocol::CaptureMode::kFull;
+                } else if (v == "half") {
+                  mode = protocol::CaptureMode::kHalf;
+                } else if (v == "quarter") {
+                  mode = protocol::CaptureMode::kQuarter;
+                } else {
+                  error = "--mode: got '" + v + "', expected full, half or quarter";
+                  return false;
+                }
+                return true;
+              })
+      .Custom("--cameras",
+              [&cameras](const std::string& v, std::string& error) {
+                if (v == "both") {
+                  cameras = protocol::kCaptureOmni | protocol::kCapturePersp;
+                } else if (v == "omni") {
+                  cameras = protocol::kCaptureOmni;
+                } else if (v == "persp") {
+                  cameras = protocol::kCapturePersp;
+                } else {
+                  error = "--cameras: got '" + v + "', expected both, omni or persp";
+                  return false;
+                }
+                return true;
+              })
+      .Int("--baud", 1, 4000000, baud)
+      .Number("--seconds", 0.1, 1e6, seconds);
+  if (const int rc = args.Parse(argc, argv); rc >= 0) return rc;
   struct stat st {};
   if (lstat(out_dir.c_str(), &st) == 0) {
     if (!S_ISDIR(st.st_mode)) {

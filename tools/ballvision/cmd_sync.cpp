@@ -22,18 +22,15 @@
 namespace bv::cli {
 namespace {
 
-int SyncUsage() {
-  std::fprintf(stderr,
-               "usage: ballvision sync SOURCE [--hz N] [--seconds S] [--baud N]\n"
-               "       ballvision sync --exchanges FILE.csv [--baud N]\n"
-               "  Live: sends clock sync requests (default 10 Hz) on a serial device, pty or\n"
-               "  tcp:HOST:PORT and prints the offset (this computer's steady clock minus the\n"
-               "  coprocessor's) and drift once a second.\n"
-               "  --exchanges: feeds recorded exchanges (CSV id,t1,t2,t3,t4 in µs, header line)\n"
-               "  to the estimator and prints one line per exchange: id, verdict, t2 in host\n"
-               "  time (µs), drift (ppm); --baud sets the wire-time correction (0: none).\n");
-  return 2;
-}
+const char* const kSyncUsage =
+    "usage: ballvision sync SOURCE [--hz N] [--seconds S] [--baud N]\n"
+    "       ballvision sync --exchanges FILE.csv [--baud N]\n"
+    "  Live: sends clock sync requests (default 10 Hz) on a serial device, pty or\n"
+    "  tcp:HOST:PORT and prints the offset (this computer's steady clock minus the\n"
+    "  coprocessor's) and drift once a second.\n"
+    "  --exchanges: feeds recorded exchanges (CSV id,t1,t2,t3,t4 in µs, header line)\n"
+    "  to the estimator and prints one line per exchange: id, verdict, t2 in host\n"
+    "  time (µs), drift (ppm); --baud sets the wire-time correction (0: none).\n";
 
 const char* VerdictName(tools::ClockSync::Verdict v) {
   switch (v) {
@@ -109,44 +106,22 @@ int ReplayExchanges(const std::string& path, const tools::ClockSync::Config& con
 }  // namespace
 
 int CmdSync(int argc, char** argv) {
-  if (argc < 2 || std::strcmp(argv[1], "--help") == 0) return SyncUsage();
   std::string source, exchanges, err;
   double hz = 10, seconds = 0;
   long baud = 921600;
-  int first = 1;
-  if (std::strcmp(argv[1], "--exchanges") != 0) {
-    source = argv[1];
-    first = 2;
-  }
-  for (int i = first; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (i + 1 >= argc) {
-      std::fprintf(stderr, "ballvision sync: %s needs a value\n", a.c_str());
-      return SyncUsage();
-    }
-    const std::string v = argv[++i];
-    bool ok = true;
-    if (a == "--exchanges") {
-      exchanges = v;
-    } else if (a == "--hz") {
-      ok = ArgNumber("--hz", v, 0.1, 100, hz, err);
-    } else if (a == "--seconds") {
-      ok = ArgNumber("--seconds", v, 0.1, 1e7, seconds, err);
-    } else if (a == "--baud") {
-      ok = ArgIntAs("--baud", v, 0, 4000000, baud, err);
-    } else {
-      std::fprintf(stderr, "ballvision sync: unknown option %s\n", a.c_str());
-      return SyncUsage();
-    }
-    if (!ok) {
-      std::fprintf(stderr, "ballvision sync: %s\n", err.c_str());
-      return 2;
-    }
+  ArgParser args("ballvision sync", kSyncUsage);
+  args.Positional("SOURCE", source, false)
+      .Text("--exchanges", exchanges)
+      .Number("--hz", 0.1, 100, hz)
+      .Number("--seconds", 0.1, 1e7, seconds)
+      .Int("--baud", 0, 4000000, baud);
+  if (const int rc = args.Parse(argc, argv); rc >= 0) return rc;
+  if (source.empty() == exchanges.empty()) {
+    return args.UsageError("give either SOURCE or --exchanges FILE.csv");
   }
   tools::ClockSync::Config config;
   config.byte_us = baud > 0 ? 10.0 / static_cast<double>(baud) * 1e6 : 0.0;
   if (!exchanges.empty()) return ReplayExchanges(exchanges, config);
-  if (source.empty()) return SyncUsage();
 
   bool writable = false;
   const int fd = OpenLink(source, baud, writable, err);
