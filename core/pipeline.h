@@ -35,9 +35,8 @@ struct PipelineConfig {
   TriangulationConfig triangulation;
   float max_ray_gap_m = 0.4f;  // larger: the two detections are not the same ball
   BallFinderConfig finder;     // ball choice and attention (core/detect), both cameras
-  // The field (configuration, stored with the calibration) for the in-field rule and the
-  // self-localisation from the omni camera's line points (core/field).
-  FieldConfig field;
+  // The field itself is the calibration's (RigCalibration::field): the in-field rule and the
+  // self-localisation from the omni camera's line points (core/field) use it.
   bool field_features = true;  // line points, obstacles, localisation
   int feature_rays = 64;       // power of two; part of the omni scan table
   FieldFeatureConfig features;
@@ -142,6 +141,8 @@ class Pipeline {
   OmniField omni_field_;
   PerspField persp_field_;
   void Predict(uint64_t t_us);
+  void NameGoals();
+  void RefreshFieldRule();
 
   const RigCalibration* calibration_ = nullptr;
   const ColorLut* lut_ = nullptr;
@@ -163,6 +164,11 @@ class Pipeline {
   bool features_ready_ = false;
   float odometry_[3] = {};
   bool odometry_pending_ = false;
+  struct FieldRule {  // InField's pose, refreshed when the pose changes (RefreshFieldRule)
+    bool active = false;
+    float x = 0, y = 0, s = 0, c = 1, half_x = 0, half_y = 0;
+  };
+  FieldRule field_rule_;
 };
 
 }  // namespace bv

@@ -80,12 +80,21 @@ void Localiser::ApplyHalf() {
 }
 
 float Localiser::Score(const FieldFeatures& f, float x, float y, float h, int max_points) const {
+  return Score(f, x, y, std::sin(h), std::cos(h), max_points, 1e30f);
+}
+
+// Mean error over a subsample. The terms are >= 0, so once the running sum passes `give_up`
+// (times the points) the pose cannot beat it: returned as is (> give_up), the rest not scored.
+float Localiser::Score(const FieldFeatures& f, float x, float y, float s, float co, int max_points,
+                       float give_up) const {
   if (f.line_count == 0) return 1.0f;
   const int stride = std::max(1, (f.line_count + max_points - 1) / std::max(1, max_points));
   const float c = kSearchCPerGrid * config_.grid_m, c2 = c * c;
-  const float s = std::sin(h), co = std::cos(h);
+  int points = 0;
+  for (int i = 0; i < f.line_count; i += stride) points += Finite(f.lines[i]) ? 1 : 0;
+  if (points == 0) return 1.0f;
+  const float limit = give_up * static_cast<float>(points);
   float sum = 0.0f;
-  int n = 0;
   for (int i = 0; i < f.line_count; i += stride) {
     if (!Finite(f.lines[i])) continue;
     const float rx = f.lines[i].x_m, ry = f.lines[i].y_m;
@@ -93,9 +102,9 @@ float Localiser::Score(const FieldFeatures& f, float x, float y, float h, int ma
     float gx, gy;
     const float d = field_->Distance(fx, fy, gx, gy);
     sum += 1.0f - c2 / (c2 + d * d);
-    ++n;
+    if (sum > limit) break;
   }
-  return n > 0 ? sum / static_cast<float>(n) : 1.0f;
+  return sum / static_cast<float>(points);
 }
 
 Localiser::FitResult Localiser::Refine(const FieldFeatures& f, float x, float y, float h,
@@ -243,6 +252,12 @@ void Localiser::Keep(const Candidate& c) {
 void Localiser::ContinueSearch(const FieldFeatures& f) {
   const FieldConfig& fc = field_->config();
   const int end = std::min(search_total_, search_next_ + config_.evals_per_frame);
+  const bool evaluated = search_next_ < end;
+  float sin_h[2], cos_h[2];
+  for (int k = 0; k < 2; ++k) {
+    sin_h[k] = std::sin(search_h_[k]);
+    cos_h[k] = std::cos(search_h_[k]);
+  }
   for (; search_next_ < end; ++search_next_) {
     const int hk = search_next_ / (search_nx_ * search_ny_);
     const int rest = search_next_ % (search_nx_ * search_ny_);
@@ -250,11 +265,15 @@ void Localiser::ContinueSearch(const FieldFeatures& f) {
         -0.5f * fc.length_m - 0.5f + static_cast<float>(rest % search_nx_) * config_.grid_m;
     const float y =
         -0.5f * fc.width_m - 0.5f + static_cast<float>(rest / search_nx_) * config_.grid_m;
-    const float s = Score(f, x, y, search_h_[hk], kScorePoints);
+    // Only a pose better than the worst kept candidate can enter (Keep): stop scoring one that
+    // cannot. The kept list is the same as with full scores.
+    const float give_up = best_count_ == kMaxCandidates ? best_[kMaxCandidates - 1].score : 1e30f;
+    const float s = Score(f, x, y, sin_h[hk], cos_h[hk], kScorePoints, give_up);
     ++pose_.evaluations;
-    Keep(Candidate{x, y, search_h_[hk], s});
+    if (s < give_up) Keep(Candidate{x, y, search_h_[hk], s});
   }
-  if (search_next_ < search_total_) return;
+  // The refinement below costs about as much as a frame of the grid: it gets a frame of its own.
+  if (search_next_ < search_total_ || evaluated) return;
   searching_ = false;
   // Refine every candidate on this frame's points, coarse to fine; keep the best fit. If another
   // pose (not the symmetric twin) fits nearly as well, the lines seen do not tell where the robot
@@ -286,7 +305,7 @@ void Localiser::ContinueSearch(const FieldFeatures& f) {
                              config_.global_inlier_ratio * static_cast<float>(fits[best].used) &&
                          Constrained(fits[best]);
   if (unique && fits_well) {
-    Accept(fits[best], last_t_us_);
+    Accept(fits[best]);
     pose_.ambiguous = true;
     ApplyHalf();
   } else {
@@ -311,7 +330,7 @@ bool Localiser::SamePose(const FitResult& a, const FitResult& b) {
   return same || twin;
 }
 
-void Localiser::Accept(const FitResult& r, uint64_t) {
+void Localiser::Accept(const FitResult& r) {
   pose_.state = PoseEstimate::kTracking;
   pose_.x_m = r.x;
   pose_.y_m = r.y;
@@ -367,7 +386,7 @@ void Localiser::Update(const FieldFeatures& f, uint64_t t_us, const float* odome
     h.h = hint_.heading_rad;
     if (good(r) && SamePose(r, h)) {
       searching_ = false;
-      Accept(r, t_us);
+      Accept(r);
       pose_.ambiguous = false;
       last_t_us_ = t_us;
       return;
@@ -385,7 +404,7 @@ void Localiser::Update(const FieldFeatures& f, uint64_t t_us, const float* odome
     pose_.evaluations += static_cast<uint32_t>(config_.track_iterations);
     if (good(r)) {
       const bool ambiguous = pose_.ambiguous;
-      Accept(r, t_us);
+      Accept(r);
       pose_.ambiguous = ambiguous;
       last_t_us_ = t_us;
       return;

@@ -80,6 +80,10 @@ class Localiser {
   float Score(const FieldFeatures& f, float x, float y, float h, int max_points) const;
 
  private:
+  // `give_up`: stop once the mean cannot stay below it (the global search's pruning).
+  float Score(const FieldFeatures& f, float x, float y, float s, float co, int max_points,
+              float give_up) const;
+
   struct Candidate {
     float x, y, h, score;
   };
@@ -96,7 +100,7 @@ class Localiser {
   static bool SamePose(const FitResult& a, const FitResult& b);
   bool Constrained(const FitResult& r) const;
   void ContinueSearch(const FieldFeatures& f);
-  void Accept(const FitResult& r, uint64_t t_us);
+  void Accept(const FitResult& r);
   void Coast(uint64_t t_us);
   void ApplyHalf();
 

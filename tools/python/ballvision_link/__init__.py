@@ -4,10 +4,11 @@ The wire format is described in docs/protocol.md: COBS frames delimited by 0x00,
 a 10-byte header (version, type, schema hash, sequence, payload length), the payload and a
 CRC-32 (zlib.crc32). Only the standard library is needed to decode; pyserial to open a port.
 """
-from .protocol import (BallState, Decoder, LinePoints, Obstacles, Pose, StatusReport,
-                       MSG_BALL_STATE, MSG_LINE_POINTS, MSG_OBSTACLES, MSG_POSE, MSG_STATUS,
+from .protocol import (BallState, Decoder, Goals, LinePoints, Obstacles, Pose, StatusReport,
+                       MSG_BALL_STATE, MSG_GOALS, MSG_LINE_POINTS, MSG_OBSTACLES, MSG_POSE,
+                       MSG_STATUS,
                        cobs_decode, cobs_encode, SCHEMA_HASH)
 
-__all__ = ["BallState", "Decoder", "LinePoints", "Obstacles", "Pose", "StatusReport",
-           "MSG_BALL_STATE", "MSG_LINE_POINTS", "MSG_OBSTACLES", "MSG_POSE", "MSG_STATUS",
+__all__ = ["BallState", "Decoder", "Goals", "LinePoints", "Obstacles", "Pose", "StatusReport",
+           "MSG_BALL_STATE", "MSG_GOALS", "MSG_LINE_POINTS", "MSG_OBSTACLES", "MSG_POSE", "MSG_STATUS",
            "cobs_decode", "cobs_encode", "SCHEMA_HASH"]

@@ -11,6 +11,7 @@ MSG_STATUS = 0x02
 MSG_POSE = 0x03
 MSG_LINE_POINTS = 0x04
 MSG_OBSTACLES = 0x05
+MSG_GOALS = 0x06
 HEADER = struct.Struct("<BBHIH")
 MAX_PAYLOAD = 1024
 # Receive limits of core/protocol's Decoder (kMaxRawFrameBytes, kMaxWireFrameBytes): a frame
@@ -32,7 +33,9 @@ _SCHEMA = (
     "pose:t_us u64,state u8,flags u8,points_used inliers u16,x y heading f32,"
     "sigma_x sigma_y sigma_heading f32,quality f32;"
     "lines:t_us u64,found u16,count u8,reserved u8,count*(x_mm y_mm i16);"
-    "obstacles:t_us u64,found count u8,count*(x_mm y_mm i16,radius_mm u16)")
+    "obstacles:t_us u64,found count u8,count*(x_mm y_mm i16,radius_mm u16);"
+    "goals:t_us u64,found count u8,count*(x_mm y_mm bearing_mrad i16,half_width_mrad u16,"
+    "rays post_rays u8,which i8,flags u8)")
 SCHEMA_HASH = zlib.crc32(_SCHEMA.encode()) & 0xFFFF
 
 MODES = ("none", "rolling", "flying", "bouncing")
@@ -45,7 +48,9 @@ _LINES_HEAD = struct.Struct("<QHBB")
 _OBSTACLES_HEAD = struct.Struct("<QBB")
 assert _BALL.size == 92 and _STATUS.size == 104 and _POSE.size == 42
 assert _LINES_HEAD.size == 12 and _OBSTACLES_HEAD.size == 10
-MAX_LINE_POINTS, MAX_OBSTACLES = 64, 16
+MAX_LINE_POINTS, MAX_OBSTACLES, MAX_GOALS = 64, 16, 2
+_GOAL = struct.Struct("<hhhHBBbB")
+assert _GOAL.size == 12
 POSE_STATES = ("unknown", "searching", "tracking", "coasting")
 POSE_AMBIGUOUS, POSE_HINT_REJECTED, POSE_USABLE = 1, 2, 4
 
@@ -145,6 +150,17 @@ class Obstacles:
     t_us: int
     found: int
     obstacles: List[Tuple[float, float, float]]
+
+
+@dataclass
+class Goals:
+    """Goal mouths seen: (x, y, bearing, half_width, rays, post_rays, which, which_ambiguous);
+    x, y m (centre of the seen mouth, robot frame), bearing +- half_width rad (robot frame, CCW
+    from +x), which +1 / -1 (the goal at field +X / -X, from the pose) or 0 (unknown)."""
+    seq: int
+    t_us: int
+    found: int
+    goals: List[Tuple[float, float, float, float, int, int, int, bool]]
 
 
 def cobs_encode(data: bytes) -> bytes:
@@ -250,11 +266,29 @@ def parse_obstacles(seq: int, payload: bytes) -> Optional[Obstacles]:
                                          v[3 * i + 2] / 1000.0) for i in range(count)])
 
 
+def parse_goals(seq: int, payload: bytes) -> Optional[Goals]:
+    if len(payload) < _OBSTACLES_HEAD.size:  # the same 10-byte head
+        return None
+    t_us, found, count = _OBSTACLES_HEAD.unpack_from(payload)
+    if count > MAX_GOALS or count > found or len(payload) != _OBSTACLES_HEAD.size + _GOAL.size * count:
+        return None
+    goals = []
+    for i in range(count):
+        x, y, b, hw, rays, posts, which, flags = _GOAL.unpack_from(
+            payload, _OBSTACLES_HEAD.size + _GOAL.size * i)
+        if abs(b) > 3142 or hw > 3142 or posts > rays or which not in (-1, 0, 1) or flags & ~1:
+            return None
+        goals.append((x / 1000.0, y / 1000.0, b / 1000.0, hw / 1000.0, rays, posts, which,
+                      bool(flags & 1)))
+    return Goals(seq, t_us, found, goals)
+
+
 _PARSERS = {MSG_BALL_STATE: parse_ball_state,
             MSG_STATUS: parse_status,
             MSG_POSE: parse_pose,
             MSG_LINE_POINTS: parse_line_points,
-            MSG_OBSTACLES: parse_obstacles}
+            MSG_OBSTACLES: parse_obstacles,
+            MSG_GOALS: parse_goals}
 
 
 class Decoder:
