@@ -10,6 +10,7 @@ namespace {
 
 constexpr float kOmniFitSpanPx = 25.f;  // map span used to extrapolate beyond its end
 constexpr float kRimMarginPx = 3.f;     // a ball this close to the mirror rim may be cut by it
+constexpr int kMinGoalRaysWithoutPose = 3;
 
 float AngleBetween(const Eigen::Vector3f& a, const Eigen::Vector3f& b) {
   const float c = a.normalized().dot(b.normalized());
@@ -167,7 +168,20 @@ bool Pipeline::FieldPose(RobotPose& pose, float& sigma_m) const {
 // `which` open too.
 void Pipeline::NameGoals() {
   const PoseEstimate& e = localiser_.pose();
-  if (!e.usable() || std::max(e.sigma_x_m, e.sigma_y_m) > config_.localiser.usable_sigma_m) return;
+  if (!e.usable() || std::max(e.sigma_x_m, e.sigma_y_m) > config_.localiser.usable_sigma_m) {
+    // Nothing to check against: only goals seen on several rays (a goal 2 m wide covers >= 4
+    // of 64 rays up to 5 m; a person behind a line 1-2).
+    int kept = 0;
+    for (int i = 0; i < features_.goal_count; ++i) {
+      if (features_.goals[i].rays >= kMinGoalRaysWithoutPose) {
+        features_.goals[kept++] = features_.goals[i];
+      } else {
+        ++features_.goals_refused;
+      }
+    }
+    features_.goal_count = kept;
+    return;
+  }
   const FieldConfig& f = field_model_.config();
   const float s = std::sin(e.heading_rad), c = std::cos(e.heading_rad);
   int kept = 0;

@@ -161,6 +161,11 @@ void FieldFeatureExtractor::ScanRay(const YuyvImage& img, const ColorLut& lut, i
     const uint8_t* pair = img.data + v * img.stride_bytes + (u & ~1) * 2;
     const ColorClass c = lut.Classify(pair[(u & 1) * 2], pair[1], pair[3]);
     if (c == ColorClass::kField) {
+      if (k == last_green + 1) {  // the carpet goes on (most samples): nothing else changes
+        last_green = k;
+        if (goal.end >= 0 && ++green_run >= kCarpetResumes) goal = GoalWalk{};
+        continue;
+      }
       if (white_start >= 0 && k - last_white <= 2 && white_start - green_before_white <= 2) {
         AddLinePoint(Mid(green_before_white, white_start), Mid(last_white, k), cs, sn, ray, out);
       }
@@ -172,8 +177,7 @@ void FieldFeatureExtractor::ScanRay(const YuyvImage& img, const ColorLut& lut, i
           goal.post_w0 = tail_w0;
           goal.post_w1 = tail_w1;
         }
-        green_run = k == last_green + 1 ? green_run + 1 : 1;
-        if (green_run >= kCarpetResumes) goal = GoalWalk{};  // an island on the carpet
+        green_run = 1;  // counted on by the fast path above: 8 in a row, the carpet resumed
       }
       white_start = -1;
       tail_w0 = -1;

@@ -73,7 +73,8 @@ struct FieldFeatures {
   Goal goals[kMaxGoals];
   int goal_count = 0;
   uint32_t goals_dropped = 0;  // over capacity
-  uint32_t goals_refused = 0;  // seen where the pose puts no goal (removed by the pipeline)
+  uint32_t goals_refused = 0;  // removed by the pipeline: where the pose puts no goal, or on
+                               // fewer than 3 rays while there is no pose to check them
   uint32_t lookups = 0;        // LUT lookups of this pass (the pixels are the scan table's)
 };
 

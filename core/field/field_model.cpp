@@ -98,6 +98,7 @@ Status FieldModel::Init(const FieldConfig& f) {
 
   const float ex = hl + f.border_m + 0.5f, ey = hw + f.border_m + 0.5f;
   cell_m_ = std::max({0.1f, ex / kMaxCellsX, ey / kMaxCellsY});
+  inv_cell_ = 1.0f / cell_m_;
   cells_x_ = std::min(kMaxCellsX, static_cast<int>(std::ceil(ex / cell_m_)));
   cells_y_ = std::min(kMaxCellsY, static_cast<int>(std::ceil(ey / cell_m_)));
   for (int j = 0; j < cells_y_; ++j) {
@@ -170,6 +171,28 @@ float FieldModel::Distance(float x_m, float y_m, float& gx, float& gy) const {
   gx *= sx;
   gy *= sy;
   return d;
+}
+
+// The global search's inner loop: the squared distance only (its error function needs no more),
+// so no gradient, no division and a square root for arcs alone.
+float FieldModel::Distance2(float x_m, float y_m) const {
+  const float ax = std::fabs(x_m), ay = std::fabs(y_m);
+  if (!(ax < 1e3f) || !(ay < 1e3f)) return 1e6f;
+  const int i = std::min(static_cast<int>(ax * inv_cell_), cells_x_ - 1);
+  const int j = std::min(static_cast<int>(ay * inv_cell_), cells_y_ - 1);
+  const Primitive& p = prims_[(nearest_[j][i >> 1] >> ((i & 1) * 4)) & 0x0F];
+  if (p.kind == 0) {
+    const float ex = ax - std::min(std::max(ax, p.a), p.c);
+    const float ey = ay - std::min(std::max(ay, p.b), p.d);
+    return ex * ex + ey * ey;
+  }
+  if (p.kind == 1) {
+    float gx, gy;
+    const float d = PrimitiveDistance(p, ax, ay, gx, gy);
+    return d * d;
+  }
+  const float ex = ax - p.a, ey = ay - p.b;
+  return ex * ex + ey * ey;
 }
 
 bool FieldModel::Inside(float x_m, float y_m, float margin_m) const {

@@ -26,6 +26,8 @@ class FieldModel {
   /// Distance (m) from field point (x, y) to the nearest line centre; (gx, gy) receives the
   /// gradient of that distance (a unit vector pointing away from the line; 0 on the line).
   float Distance(float x_m, float y_m, float& gx, float& gy) const;
+  /// The same distance squared, without the gradient (cheaper: the global search's scoring).
+  float Distance2(float x_m, float y_m) const;
   /// True if (x, y) lies within the field lines plus `margin_m`.
   bool Inside(float x_m, float y_m, float margin_m) const;
   int primitive_count() const { return count_; }
@@ -46,7 +48,7 @@ class FieldModel {
   bool ready_ = false;
   Primitive prims_[kMaxPrimitives] = {};
   int count_ = 0;
-  float cell_m_ = 0.1f;
+  float cell_m_ = 0.1f, inv_cell_ = 10.0f;
   int cells_x_ = 0, cells_y_ = 0;
   // 4 bits a cell (<= 16 primitives): 4.5 KB of RAM for the default field at 10 cm.
   uint8_t nearest_[kMaxCellsY][kMaxCellsX / 2] = {};
