@@ -313,16 +313,23 @@ void Localiser::ContinueSearch(const FieldFeatures& f) {
     r.h = best_[k].h;
     return r;
   };
-  bool unique = best >= 0;
-  for (int k = 0; k < best_count_ && unique; ++k) {
-    if (k == best || best_[k].score < 0.9f * best_[best].score) continue;
-    unique = SamePose(fit(k), fit(best));
-  }
   FitResult win{};
   if (best >= 0) {
     // From the candidate's frame to this one the robot may have moved: a wider step first.
     win = Refine(f, best_[best].x, best_[best].y, best_[best].h, 2, 0.5f, 1, false);
     win = Refine(f, win.x, win.y, win.h, 2, config_.c_m);
+  }
+  // A rival that fitted nearly as well on its subsample is refitted on all of this frame's
+  // points, so that both are judged on the same points.
+  bool unique = best >= 0;
+  for (int k = 0; k < best_count_ && unique; ++k) {
+    if (k == best || best_[k].score < 0.9f * best_[best].score || SamePose(fit(k), fit(best))) {
+      continue;
+    }
+    const FitResult r = Refine(f, best_[k].x, best_[k].y, best_[k].h, 2, config_.c_m, 1, false);
+    pose_.evaluations += 3;
+    unique =
+        static_cast<float>(r.inliers) < 0.9f * static_cast<float>(win.inliers) || SamePose(r, win);
   }
   const bool fits_well = best >= 0 && win.inliers >= config_.min_points &&
                          static_cast<float>(win.inliers) >=
