@@ -98,6 +98,11 @@ FIELD_HEADERS = {Pose: ",".join(POSE_COLUMNS),
                         "which_ambiguous"}
 
 
+def _csv_value(v) -> str:
+    """As `ballvision listen` writes it (C++ stream: 6 significant digits, -1 not -1.0)."""
+    return format(v, "g") if isinstance(v, float) else str(v)
+
+
 def _field_rows(msg):
     """CSV rows of a pose / line-points / obstacles message (one row per point or obstacle)."""
     if isinstance(msg, Pose):  # state as its number and flags as 0/1, as `ballvision listen`
@@ -173,7 +178,7 @@ class _Listener:
             out = self.field[type(msg)]
             if out:
                 for row in _field_rows(msg):
-                    out.write(",".join(str(v) for v in row) + "\n")
+                    out.write(",".join(_csv_value(v) for v in row) + "\n")
         elif isinstance(msg, StatusReport):
             self.statuses += 1
             if self.status:
