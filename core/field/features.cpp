@@ -154,11 +154,17 @@ void FieldFeatureExtractor::ScanRay(const YuyvImage& img, const ColorLut& lut, i
   int green_run = 0;
   const int n = inside_[ray];
   out.lookups += static_cast<uint32_t>(n);
+  // Locals: the writes to `out` below may alias anything the compiler cannot see through, so
+  // members read in the loop would be reloaded every sample (the hot loop of the feature pass).
+  const OmniRayQ ray_q = q;
+  const uint8_t* const data = img.data;
+  const int stride = img.stride_bytes;
+  const int32_t* const radii = radii_q4_;
   for (int k = 0; k < n; ++k) {
     int u, v;
-    OmniRayPixel(q, radii_q4_[k], u, v);
+    OmniRayPixel(ray_q, radii[k], u, v);
     // Inside the frame by construction (inside_), so no bounds test in this loop.
-    const uint8_t* pair = img.data + v * img.stride_bytes + (u & ~1) * 2;
+    const uint8_t* pair = data + v * stride + (u & ~1) * 2;
     const ColorClass c = lut.Classify(pair[(u & 1) * 2], pair[1], pair[3]);
     if (c == ColorClass::kField) {
       if (k == last_green + 1) {  // the carpet goes on (most samples): nothing else changes
