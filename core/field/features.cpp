@@ -329,9 +329,6 @@ void FieldFeatureExtractor::MergeObstacles(const YuyvImage& img, const ColorLut&
     o.x_m = x * (d + radius) / d;
     o.y_m = y * (d + radius) / d;
     o.radius_m = radius;
-    o.foot_m = foot_m;
-    o.bearing_rad = std::atan2(y, x);
-    o.half_width_rad = half;
   }
 }
 

@@ -25,12 +25,11 @@ struct LinePoint {
   uint8_t ray = 0;         // feature ray index (neighbourhood for the heading estimate)
 };
 
+// Centre and radius only (foot distance and angular width, derivable and never read, went for
+// RAM: 192 B).
 struct Obstacle {
   float x_m = 0, y_m = 0;  // footprint centre, robot frame
   float radius_m = 0;      // footprint radius
-  float foot_m = 0;        // distance of the nearest point (foot) from the robot centre
-  float bearing_rad = 0;   // robot frame, CCW from +x, of the centre
-  float half_width_rad = 0;
 };
 
 /// A goal seen from the field: the mouth (goal line between the posts) as far as the rays saw it.
