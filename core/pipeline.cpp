@@ -12,6 +12,7 @@ namespace {
 
 constexpr float kOmniFitSpanPx = 25.f;  // map span used to extrapolate beyond its end
 constexpr float kRimMarginPx = 3.f;     // a ball this close to the mirror rim may be cut by it
+constexpr int kMinGoalRaysWithoutPose = 3;
 
 float AngleBetween(const Eigen::Vector3f& a, const Eigen::Vector3f& b) {
   const float c = a.normalized().dot(b.normalized());
@@ -145,13 +146,16 @@ Status Pipeline::SetRobotPose(const RobotPose& pose) {
     hint.heading_rad = pose.heading_rad;
     BV_TRY(localiser_.SetHint(hint));
   }
+  RefreshFieldRule();
   return Status();
 }
 
 Status Pipeline::SetFieldHalf(int8_t half) {
   PoseHint hint;
   hint.half = half;
-  return localiser_.SetHint(hint);
+  BV_TRY(localiser_.SetHint(hint));
+  RefreshFieldRule();
+  return Status();
 }
 
 Status Pipeline::SetOdometry(float dx_m, float dy_m, float dheading_rad) {
@@ -182,17 +186,69 @@ bool Pipeline::FieldPose(RobotPose& pose, float& sigma_m) const {
   return pose_.known;
 }
 
-bool Pipeline::InField(float x_m, float y_m) const {
+// Which goal each seen goal is, from the pose; one the pose puts far from both goals is something
+// else behind a line (a person, a box) and is removed. The two goals look the same (the rendered
+// venue's are both white), so a goal cannot break the field's symmetry: an ambiguous pose leaves
+// `which` open too.
+void Pipeline::NameGoals() {
+  const PoseEstimate& e = localiser_.pose();
+  if (!e.usable() || std::max(e.sigma_x_m, e.sigma_y_m) > config_.localiser.usable_sigma_m) {
+    // Nothing to check against: only goals seen on several rays (a goal 2 m wide covers >= 4
+    // of 64 rays up to 5 m; a person behind a line 1-2).
+    int kept = 0;
+    for (int i = 0; i < features_.goal_count; ++i) {
+      if (features_.goals[i].rays >= kMinGoalRaysWithoutPose) {
+        features_.goals[kept++] = features_.goals[i];
+      } else {
+        ++features_.goals_refused;
+      }
+    }
+    features_.goal_count = kept;
+    return;
+  }
+  const FieldConfig& f = field_model_.config();
+  const float s = std::sin(e.heading_rad), c = std::cos(e.heading_rad);
+  int kept = 0;
+  for (int i = 0; i < features_.goal_count; ++i) {
+    Goal g = features_.goals[i];
+    const float fx = e.x_m + g.x_m * s + g.y_m * c;
+    const float fy = e.y_m - g.x_m * c + g.y_m * s;
+    if (std::fabs(std::fabs(fx) - 0.5f * f.length_m) > 0.5f * f.goal_width_m ||
+        std::fabs(fy) > f.goal_width_m) {
+      ++features_.goals_refused;
+      continue;
+    }
+    g.which = fx < 0.0f ? -1 : 1;
+    g.which_ambiguous = e.ambiguous;
+    features_.goals[kept++] = g;
+  }
+  features_.goal_count = kept;
+}
+
+// The in-field rule runs for every ball candidate of both cameras: the pose, its sine and cosine
+// and the field's half sizes are worked out once per change, not once per candidate.
+void Pipeline::RefreshFieldRule() {
   RobotPose pose;
   float sigma = 0;
-  if (!FieldPose(pose, sigma)) return true;
-  // Robot +x is (sin h, -cos h) in the field, robot +y is (cos h, sin h).
-  const float s = std::sin(pose.heading_rad), c = std::cos(pose.heading_rad);
-  const float fx = pose.x_m + x_m * s + y_m * c;
-  const float fy = pose.y_m - x_m * c + y_m * s;
-  const FieldConfig& f = config_.field;
+  field_rule_.active = FieldPose(pose, sigma);
+  if (!field_rule_.active) return;
+  field_rule_.x = pose.x_m;
+  field_rule_.y = pose.y_m;
+  field_rule_.s = std::sin(pose.heading_rad);
+  field_rule_.c = std::cos(pose.heading_rad);
+  const FieldConfig& f = field_model_.config();
   const float margin = f.margin_m + 2.0f * sigma;
-  return std::fabs(fx) <= 0.5f * f.length_m + margin && std::fabs(fy) <= 0.5f * f.width_m + margin;
+  field_rule_.half_x = 0.5f * f.length_m + margin;
+  field_rule_.half_y = 0.5f * f.width_m + margin;
+}
+
+bool Pipeline::InField(float x_m, float y_m) const {
+  const FieldRule& r = field_rule_;
+  if (!r.active) return true;
+  // Robot +x is (sin h, -cos h) in the field, robot +y is (cos h, sin h).
+  const float fx = r.x + x_m * r.s + y_m * r.c;
+  const float fy = r.y - x_m * r.c + y_m * r.s;
+  return std::fabs(fx) <= r.half_x && std::fabs(fy) <= r.half_y;
 }
 
 // The ray meets the floor beyond the ball; a ball on the floor has its centre at height r, so
@@ -243,14 +299,16 @@ Status Pipeline::Init(const RigCalibration& calibration, const ColorLut& lut,
   config_.filter.ball_radius_m = calibration.ball_radius_m;
   config_.finder.ball_box = lut.Bounds(ColorClass::kBall);
   features_ready_ = false;
-  BV_TRY(field_model_.Init(config_.field));
+  BV_TRY(field_model_.Init(calibration.field));
   if (calibration.omni.valid) {
     const OmniScanConfig scan = PipelineOmniScan(calibration.omni, config_);
     omni_outer_radius_px_ = scan.outer_radius_px;
     BV_TRY(omni_scan_.BuildOmni(scan, kFrameWidth, kFrameHeight));
     if (config_.field_features) {
       FieldFeatureConfig fc = config_.features;
-      fc.line_width_m = config_.field.line_width_m;
+      fc.line_width_m = calibration.field.line_width_m;
+      fc.goal_width_m = calibration.field.goal_width_m;
+      fc.goal_depth_m = calibration.field.goal_depth_m;
       BV_TRY(extractor_.Init(scan, calibration.omni, fc));
       BV_TRY(localiser_.Init(&field_model_, config_.localiser));
       features_ready_ = true;
@@ -271,6 +329,7 @@ Status Pipeline::Init(const RigCalibration& calibration, const ColorLut& lut,
   filter_.Configure(config_.filter);
   stats_ = PipelineStats{};
   pred_omni_ = pred_persp_ = ImagePrediction{};
+  RefreshFieldRule();
   initialised_ = true;
   return Status();
 }
@@ -349,15 +408,15 @@ Status Pipeline::Process(const FrameInput& in, BallState& out) {
   if (features_ready_ && in.omni.valid()) {
     if (extractor_.Extract(in.omni, *lut_, features_).ok()) {
       localiser_.Update(features_, in.t_us, odometry_pending_ ? odometry_ : nullptr);
+      NameGoals();
     } else {
       ++stats_.frame_errors;
     }
     odometry_pending_ = false;
     stats_.feature_lookups = features_.lookups;
   }
-  RobotPose field_pose;
-  float pose_sigma = 0;
-  const bool have_field_pose = FieldPose(field_pose, pose_sigma);
+  RefreshFieldRule();
+  const bool have_field_pose = field_rule_.active;
   omni_finder_.set_reject_outside(have_field_pose);
   persp_finder_.set_reject_outside(have_field_pose);
 

@@ -44,10 +44,9 @@ struct PipelineConfig {
   float omni_azimuth_sigma_rad = 0.006f;
   float persp_sigma_px = 0.3f, persp_sigma_per_radius = 0.01f;
   float size_range_rel = 0.05f;
-  BallFinderConfig finder;  // ball choice and attention (core/detect), both cameras
-  // The field (configuration, stored with the calibration) for the in-field rule and the
-  // self-localisation from the omni camera's line points (core/field).
-  FieldConfig field;
+  BallFinderConfig finder;     // ball choice and attention (core/detect), both cameras
+  // The field itself is the calibration's (RigCalibration::field): the in-field rule and the
+  // self-localisation from the omni camera's line points (core/field) use it.
   bool field_features = true;  // line points, obstacles, localisation
   int feature_rays = 64;       // power of two; part of the omni scan table
   FieldFeatureConfig features;
@@ -152,6 +151,8 @@ class Pipeline {
   OmniField omni_field_;
   PerspField persp_field_;
   void Predict(uint64_t t_us);
+  void NameGoals();
+  void RefreshFieldRule();
 
   const RigCalibration* calibration_ = nullptr;
   const ColorLut* lut_ = nullptr;
@@ -173,6 +174,11 @@ class Pipeline {
   bool features_ready_ = false;
   float odometry_[3] = {};
   bool odometry_pending_ = false;
+  struct FieldRule {  // InField's pose, refreshed when the pose changes (RefreshFieldRule)
+    bool active = false;
+    float x = 0, y = 0, s = 0, c = 1, half_x = 0, half_y = 0;
+  };
+  FieldRule field_rule_;
 };
 
 }  // namespace bv

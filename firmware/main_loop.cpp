@@ -454,6 +454,7 @@ void MainLoop::SendFieldPackets(uint64_t exposure_us, bool omni_seen) {
   if (!omni_seen) return;
   const FieldFeatures& f = pipeline_.features();
   SendLowPriority(protocol::EncodeObstacles(f, exposure_us, seq_++, packet_));
+  SendLowPriority(protocol::EncodeGoals(f, exposure_us, seq_++, packet_));
   size_t sent = 0;
   if (SendLowPriority(protocol::EncodeLinePoints(f, exposure_us, seq_++, packet_, sent))) {
     const size_t found = static_cast<size_t>(f.line_count > 0 ? f.line_count : 0) + f.lines_dropped;

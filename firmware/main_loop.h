@@ -34,8 +34,8 @@ inline constexpr size_t kUploadBufferBytes = 2 * kBlobScratchBytes;
 /// with the line while a flood cannot hold up the frame loop.
 inline constexpr size_t kMaxRxBytesPerPoll = 2048;
 
-/// TX ring bytes the field-feature packets (pose, obstacles, line points) leave free: room for
-/// the next pair's ball state and a status packet, so a backlog of low-priority packets can
+/// TX ring bytes the field-feature packets (pose, obstacles, goals, line points) leave free: room
+/// for the next pair's ball state and a status packet, so a backlog of low-priority packets can
 /// never make the loop drop those.
 inline constexpr size_t kTxReserveBytes =
     protocol::WireFrameBytes(protocol::kBallStatePayloadBytes) +

@@ -134,7 +134,133 @@ TEST(CalibrationBlob, FieldsAreValidated) {
             StatusCode::kResourceExhausted);
 }
 
+// The field section (blob version 2): a venue other than the MSL one survives the round trip.
+TEST(CalibrationBlob, FieldRoundTrip) {
+  RigCalibration c = Example();
+  c.field.length_m = 12.0f;
+  c.field.width_m = 8.0f;
+  c.field.center_circle_radius_m = 1.5f;
+  c.field.penalty_area_width_m = 5.0f;
+  c.field.goal_width_m = 1.6f;
+  c.field.goal_depth_m = 0.45f;
+  c.field.border_m = 1.0f;
+  c.field.margin_m = 0.2f;
+  RigCalibration back;
+  ASSERT_TRUE(ParseCalibration(Serialize(c), back).ok());
+  EXPECT_EQ(back.field.length_m, 12.0f);
+  EXPECT_EQ(back.field.width_m, 8.0f);
+  EXPECT_EQ(back.field.center_circle_radius_m, 1.5f);
+  EXPECT_EQ(back.field.penalty_area_width_m, 5.0f);
+  EXPECT_EQ(back.field.goal_width_m, 1.6f);
+  EXPECT_EQ(back.field.goal_depth_m, 0.45f);
+  EXPECT_EQ(back.field.border_m, 1.0f);
+  EXPECT_EQ(back.field.margin_m, 0.2f);
+  EXPECT_TRUE(Equal(back, c));
+}
+
+// A version-1 blob (no field section, as stored by older firmware and tools) still loads, with
+// the MSL field.
+TEST(CalibrationBlob, Version1BlobLoadsWithTheMslField) {
+  RigCalibration c = Example();
+  std::vector<uint8_t> b = Serialize(c);
+  constexpr size_t kFieldSectionBytes = 4 + 15 * 4;
+  b.resize(b.size() - kFieldSectionBytes);
+  const uint16_t v1 = 1;
+  const uint32_t len = static_cast<uint32_t>(b.size() - kBlobHeaderBytes);
+  const uint32_t crc = Crc32(std::span<const uint8_t>(b.data() + kBlobHeaderBytes, len));
+  std::memcpy(b.data() + 6, &v1, 2);
+  std::memcpy(b.data() + 8, &len, 4);
+  std::memcpy(b.data() + 12, &crc, 4);
+  RigCalibration back;
+  back.field.length_m = 1.0f;  // overwritten with the default
+  const Status st = ParseCalibration(b, back);
+  ASSERT_TRUE(st.ok()) << st.message();
+  EXPECT_EQ(back.omni.support_px[44][11], c.omni.support_px[44][11]);
+  EXPECT_EQ(back.field.length_m, FieldConfig{}.length_m);
+  EXPECT_EQ(back.field.goal_width_m, FieldConfig{}.goal_width_m);
+  // The same payload labelled version 2 lacks its field section.
+  const uint16_t v2 = 2;
+  std::memcpy(b.data() + 6, &v2, 2);
+  EXPECT_EQ(ParseCalibration(b, back).code(), StatusCode::kDataLoss);
+  // A newer version than this build knows is refused.
+  const uint16_t v3 = kCalibrationBlobVersion + 1;
+  std::memcpy(b.data() + 6, &v3, 2);
+  EXPECT_EQ(ParseCalibration(b, back).code(), StatusCode::kUnimplemented);
+}
+
+TEST(CalibrationBlob, CorruptFieldValuesAreRefusedByName) {
+  const size_t payload = Serialize(Example()).size() - kBlobHeaderBytes;
+  const size_t field = payload - 15 * 4;  // length_m, width_m, line_width_m, ...
+  EXPECT_TRUE(ParseWithPayloadEdit(field, 16.0f).ok());
+  const Status nan = ParseWithPayloadEdit(field, NAN);
+  EXPECT_EQ(nan.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(std::strstr(nan.message(), "field"), nullptr) << nan.message();
+  const Status narrow = ParseWithPayloadEdit(field + 4, 5.0f);  // narrower than the penalty area
+  EXPECT_EQ(narrow.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(std::strstr(narrow.message(), "penalty_area_width"), nullptr) << narrow.message();
+  EXPECT_EQ(ParseWithPayloadEdit(field + 2 * 4, -0.1f).code(), StatusCode::kInvalidArgument);
+  const Status tag = ParseWithPayloadEdit(field - 4, 1.0f);
+  EXPECT_EQ(tag.code(), StatusCode::kDataLoss);
+  EXPECT_NE(std::strstr(tag.message(), "field tag"), nullptr) << tag.message();
+  // Serialisation refuses a field that parsing would refuse.
+  RigCalibration c = Example();
+  c.field.goal_area_width_m = 7.0f;  // wider than the penalty area
+  std::vector<uint8_t> b(kCalibrationBlobMaxBytes);
+  const Status st = SerializeCalibration(c, b).status();
+  EXPECT_EQ(st.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(std::strstr(st.message(), "goal_area_width"), nullptr) << st.message();
+}
+
 std::string TempDir() { return test::TempDir("bv_calib_blob"); }
+
+// The JSON `field` section: rig.json's names, each optional; refusals name the field.
+TEST(CalibrationFile, FieldSectionIsReadStrictly) {
+  const std::string dir = TempDir();
+  std::string error;
+  RigCalibration c = Example();
+  c.field.length_m = 14.0f;
+  ASSERT_TRUE(cli::SaveCalibrationJson(dir + "/f.json", c, error)) << error;
+  nlohmann::json j;
+  ASSERT_TRUE(cli::ReadJsonFile(dir + "/f.json", j, error)) << error;
+  EXPECT_EQ(j["version"], 2);
+  EXPECT_FLOAT_EQ(j["field"]["length"].get<float>(), 14.0f);
+  RigCalibration r;
+  ASSERT_TRUE(cli::CalibrationFromJson(j, r, error, "f.json")) << error;
+  EXPECT_EQ(r.field.length_m, 14.0f);
+  // Missing section or keys: the MSL defaults; version 1 files (no field) still load.
+  nlohmann::json v1 = j;
+  v1.erase("field");
+  v1["version"] = 1;
+  ASSERT_TRUE(cli::CalibrationFromJson(v1, r, error, "f.json")) << error;
+  EXPECT_EQ(r.field.length_m, FieldConfig{}.length_m);
+  nlohmann::json part = j;
+  part["field"] = {{"goal_width", 2.4}};
+  ASSERT_TRUE(cli::CalibrationFromJson(part, r, error, "f.json")) << error;
+  EXPECT_FLOAT_EQ(r.field.goal_width_m, 2.4f);
+  EXPECT_EQ(r.field.length_m, FieldConfig{}.length_m);
+  // Refusals name file, field, value and expectation.
+  const auto refused = [&](nlohmann::json field, const std::string& expect) {
+    nlohmann::json bad = j;
+    bad["field"] = std::move(field);
+    std::string e;
+    RigCalibration out;
+    EXPECT_FALSE(cli::CalibrationFromJson(bad, out, e, "f.json"));
+    EXPECT_NE(e.find(expect), std::string::npos) << e;
+  };
+  refused({{"length", "18"}}, "f.json: field.length: got \"18\" (string)");
+  refused({{"width", -3}}, "f.json: field.width: got -3");
+  refused({{"border", nullptr}}, "field.border");
+  refused({{"goal_area_width", 7.0}}, "f.json: field.goal_area_width: not positive or wider");
+  refused({{"length", 3.0}}, "f.json: field.center_circle_radius: negative or the circle leaves");
+  refused(nlohmann::json::array(), "f.json: field");
+  // Unknown keys are reported (a typo must not pass silently).
+  nlohmann::json typo = j;
+  typo["field"]["lenght"] = 18;
+  std::vector<std::string> unknown;
+  ASSERT_TRUE(cli::CalibrationFromJson(typo, r, error, "f.json", &unknown)) << error;
+  ASSERT_EQ(unknown.size(), 1u);
+  EXPECT_EQ(unknown[0], "f.json: field.lenght");
+}
 
 int Calib(std::vector<std::string> args) {
   return test::RunCommand(cli::CmdCalib, std::move(args));

@@ -399,6 +399,10 @@ std::vector<StreamEntry> Stream(std::span<const uint8_t> bytes, uint32_t& decode
       protocol::ObstaclesReport o;
       ok = protocol::ParseObstacles(f.payload, o).ok();
       t = o.t_us;
+    } else if (f.type == protocol::MsgType::kGoals) {
+      protocol::GoalsReport g;
+      ok = protocol::ParseGoals(f.payload, g).ok();
+      t = g.t_us;
     } else if (f.type == protocol::MsgType::kStatus) {
       ok = protocol::ParseStatus(f.payload, last_status).ok();
     }
@@ -409,7 +413,7 @@ std::vector<StreamEntry> Stream(std::span<const uint8_t> bytes, uint32_t& decode
   return out;
 }
 
-TEST_F(MainLoopTest, PoseObstaclesAndLinePointsFollowEachBallState) {
+TEST_F(MainLoopTest, PoseObstaclesGoalsAndLinePointsFollowEachBallState) {
   InstallDemoBlobs();
   camera_.AddRegular(6, 33333);
   camera_.Add({6 * 33333, hal::kPairOmniMissing, 0});  // no new features: ball and pose only
@@ -421,24 +425,25 @@ TEST_F(MainLoopTest, PoseObstaclesAndLinePointsFollowEachBallState) {
   const auto stream = Stream(uart_.bytes(), errors, last, bad);
   EXPECT_EQ(errors, 0u);
   EXPECT_EQ(bad, 0);
-  // boot status, then per pair: ball, pose, obstacles, lines (same exposure), then final status.
-  ASSERT_EQ(stream.size(), 1u + 6 * 4 + 2 + 1);
-  const protocol::MsgType order[4] = {protocol::MsgType::kBallState, protocol::MsgType::kPose,
-                                      protocol::MsgType::kObstacles,
+  // boot status, then per pair: ball, pose, obstacles, goals, lines (same exposure), then final
+  // status.
+  ASSERT_EQ(stream.size(), 1u + 6 * 5 + 2 + 1);
+  const protocol::MsgType order[5] = {protocol::MsgType::kBallState, protocol::MsgType::kPose,
+                                      protocol::MsgType::kObstacles, protocol::MsgType::kGoals,
                                       protocol::MsgType::kLinePoints};
   for (int pair = 0; pair < 6; ++pair) {
-    for (int k = 0; k < 4; ++k) {
-      const StreamEntry& e = stream[1 + 4 * pair + k];
+    for (int k = 0; k < 5; ++k) {
+      const StreamEntry& e = stream[1 + 5 * pair + k];
       EXPECT_EQ(e.type, order[k]) << "pair " << pair << " packet " << k;
       EXPECT_EQ(e.t_us, static_cast<uint64_t>(pair) * 33333) << "pair " << pair;
     }
   }
-  EXPECT_EQ(stream[25].type, protocol::MsgType::kBallState);
-  EXPECT_EQ(stream[26].type, protocol::MsgType::kPose);
-  EXPECT_EQ(stream[26].t_us, 6u * 33333);
-  EXPECT_EQ(stream[27].type, protocol::MsgType::kStatus);
+  EXPECT_EQ(stream[31].type, protocol::MsgType::kBallState);
+  EXPECT_EQ(stream[32].type, protocol::MsgType::kPose);
+  EXPECT_EQ(stream[32].t_us, 6u * 33333);
+  EXPECT_EQ(stream[33].type, protocol::MsgType::kStatus);
   for (size_t i = 0; i < stream.size(); ++i) EXPECT_EQ(stream[i].seq, i);
-  EXPECT_EQ(loop_->feature_packets_sent(), 19u);
+  EXPECT_EQ(loop_->feature_packets_sent(), 25u);  // 6 x (pose, obstacles, goals, lines) + 1 pose
   EXPECT_EQ(last.feature_packets_dropped, 0u);
   EXPECT_EQ(last.packets_dropped, 0u);
 }
@@ -477,7 +482,7 @@ TEST_F(MainLoopTest, UnderBackpressureBallStatesGoOutFirstAndFeaturesAreDropped)
   EXPECT_EQ(loop_->status().packets_dropped, 0u);
   EXPECT_GT(loop_->status().feature_packets_dropped, 0u);
   EXPECT_GT(field, 0);
-  EXPECT_EQ(static_cast<uint32_t>(field) + loop_->status().feature_packets_dropped, 3u * kPairs);
+  EXPECT_EQ(static_cast<uint32_t>(field) + loop_->status().feature_packets_dropped, 4u * kPairs);
   EXPECT_EQ(static_cast<uint32_t>(field), loop_->feature_packets_sent());
 }
 

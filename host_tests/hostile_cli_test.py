@@ -105,8 +105,12 @@ class CalibrationJson(Base):
             self.assertIn("expected an integer in [0, 4294967295]", r.stderr)
 
     def test_unknown_version_format_model(self):
-        cases = [(lambda d: d.__setitem__("version", 2), "version: got 2 (integer), expected "
-                  "exactly 1"),
+        cases = [(lambda d: d.__setitem__("version", 3), "version: got 3 (integer), expected "
+                  "an integer in [1, 2]"),
+                 (lambda d: d.__setitem__("field", {"length": "18"}),
+                  'field.length: got "18" (string), expected a number in [0.5, 40.0]'),
+                 (lambda d: d.__setitem__("field", {"goal_area_width": 7.0}),
+                  "field.goal_area_width: not positive or wider than the penalty area"),
                  (lambda d: d.__setitem__("format", "other"), 'format: got "other" (string), '
                   'expected one of "ballvision-calibration"'),
                  (lambda d: d.pop("format"), "format: missing"),
@@ -422,14 +426,21 @@ class Signals(Base):
         data, golden = frames(5)
         src = self.path("cap.bin")
         write(src, data + golden)
+        kinds = ("pose", "lines", "obstacles", "goals")  # the golden file's field packets
+        field = lambda who: sum((["--%s-csv" % k, self.path("%s_%s.csv" % (who, k))]
+                                 for k in kinds), [])
         r1 = self.bv("listen", src, "--csv", self.path("c.csv"), "--status-csv",
-                     self.path("cs.csv"), "--quiet")
+                     self.path("cs.csv"), "--quiet", *field("c"))
         r2 = subprocess.run([sys.executable, "-m", "ballvision_link", src, "--csv",
-                             self.path("p.csv"), "--status-csv", self.path("ps.csv"), "--quiet"],
+                             self.path("p.csv"), "--status-csv", self.path("ps.csv"), "--quiet",
+                             *field("p")],
                             env=dict(os.environ, PYTHONPATH=PYLINK), capture_output=True)
         self.assertEqual((r1.returncode, r2.returncode), (0, 0))
         self.assertEqual(read(self.path("c.csv")), read(self.path("p.csv")))
         self.assertEqual(read(self.path("cs.csv")), read(self.path("ps.csv")))
+        for k in kinds:
+            self.assertEqual(read(self.path("c_%s.csv" % k)), read(self.path("p_%s.csv" % k)), k)
+        self.assertIn("0.25,4.5,1.515,0.25,4,1,1,1", read(self.path("c_goals.csv")))
 
 
 class PythonSources(Base):

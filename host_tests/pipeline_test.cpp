@@ -241,6 +241,51 @@ TEST(PipelineSim, StaticGridMeetsTheAccuracyGoals) {
   }
 }
 
+// static_grid: the robot stands 2.8 m in front of the -X goal, facing away from it. The goal is
+// seen in every frame; once the pose is usable (with the half sent, so it is not ambiguous) it is
+// named -X, and the goal's centre lies on the true mouth.
+TEST(PipelineSim, TheGoalBehindTheRobotIsFoundAndNamedByThePose) {
+  if (!SimAvailable("static_grid")) {
+    GTEST_SKIP() << "no sim/static_grid or reference calibration";
+  }
+  SimRun r;
+  std::string err, used;
+  ASSERT_TRUE(cli::LoadCalibrationFile(kRefCalib, r.cal, err)) << err;
+  ASSERT_TRUE(cli::LoadLutOrDefault("", kRefCalib, *r.lut, used, err)) << err;
+  ASSERT_TRUE(r.pipeline->Init(r.cal, *r.lut, PipelineConfig{}).ok());
+  ASSERT_TRUE(r.pipeline->SetFieldHalf(-1).ok());
+  ASSERT_TRUE(cli::ReadCsv(SimDir("static_grid") + "/truth.csv", r.truth, err)) << err;
+  host::Sequence seq;
+  ASSERT_TRUE(host::LoadSequence(SimDir("static_grid"), seq, err)) << err;
+  int frames = 0, seen = 0, named = 0;
+  cli::RunSettings rs;
+  rs.reset_each_frame = true;
+  rs.on_frame = [&](const Pipeline& p, const cli::FrameRecord&) {
+    const auto& row = r.truth.rows[static_cast<size_t>(frames++)];
+    double rx, ry, rh_deg;
+    ASSERT_TRUE(cli::Field(row, "robot_field_x", rx) && cli::Field(row, "robot_field_y", ry) &&
+                cli::Field(row, "robot_field_heading_deg", rh_deg));
+    // The mouth centre (-9, 0) in the robot frame (heading = field angle of robot +y).
+    const double h = rh_deg * M_PI / 180.0, dx = -9.0 - rx, dy = -ry;
+    const double mx = dx * std::sin(h) - dy * std::cos(h), my = dx * std::cos(h) + dy * std::sin(h);
+    const FieldFeatures& f = p.features();
+    ASSERT_LE(f.goal_count, 1);
+    if (f.goal_count == 0) return;
+    ++seen;
+    EXPECT_LT(std::hypot(f.goals[0].x_m - mx, f.goals[0].y_m - my), 0.3);
+    if (p.localisation().usable()) {
+      ++named;
+      EXPECT_EQ(f.goals[0].which, -1);
+      EXPECT_FALSE(f.goals[0].which_ambiguous);
+    } else {
+      EXPECT_EQ(f.goals[0].which, 0);
+    }
+  };
+  ASSERT_TRUE(cli::RunSequence(seq, *r.pipeline, rs, r.recs, err)) << err;
+  EXPECT_EQ(seen, frames);
+  EXPECT_GE(named, 3);  // the search takes 28 of the 33 frames
+}
+
 TEST(PipelineSim, BounceIsTrackedAndPredicted) {
   if (!SimAvailable("bounce")) {
     GTEST_SKIP() << "no sim/bounce or reference calibration";
@@ -311,11 +356,29 @@ TEST(PipelineCli, RunWritesTheDesignColumns) {
   ASSERT_EQ(cli::CmdRun(10, const_cast<char**>(argv)), 0);
   cli::CsvTable t;
   ASSERT_TRUE(cli::ReadCsv(out, t, err)) << err;
-  const std::vector<std::string> want = {"index",       "t_us",    "found",   "x",       "y",
-                                         "z",           "vx",      "vy",      "vz",      "mode",
-                                         "omni_u",      "omni_v",  "persp_u", "persp_v", "ray_gap",
-                                         "t_bounce_us", "proc_us", "px",      "py",      "pz",
-                                         "pose_x",      "pose_y",  "pose_heading_deg"};
+  const std::vector<std::string> want = {"index",
+                                         "t_us",
+                                         "found",
+                                         "x",
+                                         "y",
+                                         "z",
+                                         "vx",
+                                         "vy",
+                                         "vz",
+                                         "mode",
+                                         "omni_u",
+                                         "omni_v",
+                                         "persp_u",
+                                         "persp_v",
+                                         "ray_gap",
+                                         "t_bounce_us",
+                                         "proc_us",
+                                         "px",
+                                         "py",
+                                         "pz",
+                                         "pose_x",
+                                         "pose_y",
+                                         "pose_heading_deg"};
   EXPECT_EQ(t.header, want);
   ASSERT_EQ(t.rows.size(), 8u);
   EXPECT_EQ(t.rows[0].at("index"), "10");

@@ -360,6 +360,61 @@ TEST(Protocol, ObstaclesRoundTripAndBadPayloads) {
   EXPECT_EQ(r.count, 0);
 }
 
+TEST(Protocol, GoalsRoundTripAndBadPayloads) {
+  FieldFeatures f = SampleFeatures(0, 0);
+  f.goal_count = 2;
+  f.goals_dropped = 1;
+  f.goals[0].x_m = 4.2f;
+  f.goals[0].y_m = -1.25f;
+  f.goals[0].bearing_rad = -0.289f;
+  f.goals[0].half_width_rad = 0.21f;
+  f.goals[0].rays = 5;
+  f.goals[0].post_rays = 1;
+  f.goals[0].which = 1;
+  f.goals[0].which_ambiguous = true;
+  f.goals[1] = f.goals[0];
+  f.goals[1].bearing_rad = NAN;  // skipped, not sent as garbage
+  std::vector<uint8_t> out(kMaxWireFrameBytes);
+  auto n = EncodeGoals(f, 11, 3, out);
+  ASSERT_TRUE(n.ok());
+  EXPECT_LE(*n, WireFrameBytes(kGoalsHeaderBytes + kMaxGoalsPerPacket * kGoalBytes));
+  const auto good = Roundtrip({out.data(), *n}, MsgType::kGoals, 3);
+  GoalsReport r;
+  ASSERT_TRUE(ParseGoals(good, r).ok());
+  EXPECT_EQ(r.t_us, 11u);
+  EXPECT_EQ(r.found, 3);
+  ASSERT_EQ(r.count, 1);
+  EXPECT_EQ(r.goals[0].x_mm, 4200);
+  EXPECT_EQ(r.goals[0].y_mm, -1250);
+  EXPECT_EQ(r.goals[0].bearing_mrad, -289);
+  EXPECT_EQ(r.goals[0].half_width_mrad, 210);
+  EXPECT_EQ(r.goals[0].rays, 5);
+  EXPECT_EQ(r.goals[0].post_rays, 1);
+  EXPECT_EQ(r.goals[0].which, 1);
+  EXPECT_TRUE(r.goals[0].which_ambiguous);
+  EXPECT_FALSE(ParseGoals(std::span(good).first(good.size() - 1), r).ok());  // truncated
+  const auto refused = [&](size_t at, uint8_t value) {
+    auto bad = good;
+    bad[at] = value;
+    GoalsReport x;
+    return !ParseGoals(bad, x).ok();
+  };
+  EXPECT_TRUE(refused(8, 0));            // count > found
+  EXPECT_TRUE(refused(10 + 5, 0x7F));    // bearing beyond pi
+  EXPECT_TRUE(refused(10 + 7, 0x7F));    // half width beyond pi
+  EXPECT_TRUE(refused(10 + 9, 6));       // post rays > rays
+  EXPECT_TRUE(refused(10 + 10, 2));      // which not -1, 0, 1
+  EXPECT_TRUE(refused(10 + 11, 2));      // unknown flag
+  EXPECT_FALSE(refused(10 + 10, 0xFF));  // which -1 is fine
+  std::vector<uint8_t> flood(kGoalsHeaderBytes + 3 * kGoalBytes, 0);
+  flood[8] = 3, flood[9] = 3;  // beyond capacity, length consistent
+  EXPECT_FALSE(ParseGoals(flood, r).ok());
+  n = EncodeGoals(SampleFeatures(0, 0), 9, 2, out);
+  ASSERT_TRUE(n.ok());
+  ASSERT_TRUE(ParseGoals(Roundtrip({out.data(), *n}, MsgType::kGoals, 2), r).ok());
+  EXPECT_EQ(r.count, 0);
+}
+
 // Worst case of one pair's packets (ball, pose, full obstacles, full lines, a status) on the
 // wire: the figures of docs/protocol.md's link budget.
 TEST(Protocol, LinkBudgetFitsAt60Hz) {
@@ -370,12 +425,15 @@ TEST(Protocol, LinkBudgetFitsAt60Hz) {
       WireFrameBytes(kObstaclesHeaderBytes + kMaxObstaclesPerPacket * kObstacleBytes);
   const size_t lines =
       WireFrameBytes(kLinePointsHeaderBytes + kMaxLinePointsPerPacket * kLinePointBytes);
+  const size_t goals = WireFrameBytes(kGoalsHeaderBytes + kMaxGoalsPerPacket * kGoalBytes);
+  EXPECT_EQ(goals, 50u);
   EXPECT_EQ(ball, 108u);
   EXPECT_EQ(status, 120u);
   EXPECT_EQ(pose, 58u);
   EXPECT_EQ(obstacles, 122u);
   EXPECT_EQ(lines, 285u);
-  const size_t per_pair = ball + status + pose + obstacles + lines;
+  const size_t per_pair = ball + status + pose + obstacles + goals + lines;
+  EXPECT_EQ(per_pair, 743u);
   const size_t bytes_per_s = 921600 / 10;          // 8N1: 10 bits a byte
   EXPECT_LT(per_pair * 60, bytes_per_s * 6 / 10);  // < 60 % of the link at 60 Hz
 }
@@ -495,6 +553,20 @@ TEST(Protocol, GoldenStreamMatchesCommittedFixture) {
   auto e = EncodeLinePoints(feat, 1000000, 45, std::span(stream).subspan(used), sent);
   ASSERT_TRUE(e.ok());
   used += *e;
+  FieldFeatures goals;  // one goal straight ahead, named +X with an ambiguous pose
+  goals.goal_count = 1;
+  goals.goals[0].x_m = 0.25f;
+  goals.goals[0].y_m = 4.5f;
+  goals.goals[0].bearing_rad = 1.5153f;
+  goals.goals[0].half_width_rad = 0.25f;
+  goals.goals[0].rays = 4;
+  goals.goals[0].post_rays = 1;
+  goals.goals[0].which = 1;
+  goals.goals[0].which_ambiguous = true;
+  stream.resize(used + kMaxWireFrameBytes);
+  auto g = EncodeGoals(goals, 1000000, 46, std::span(stream).subspan(used));
+  ASSERT_TRUE(g.ok());
+  used += *g;
   stream.resize(used);
   const std::string path = std::string(BV_TEST_DATA_DIR) + "/protocol_golden.bin";
   FILE* f = std::fopen(path.c_str(), "rb");

@@ -227,7 +227,8 @@ Status OmniProject(const OmniCalibration& cal, const Eigen::Vector3f& p_robot, f
 }
 
 // --------------------------------------------------------------------------------------------
-// Blob. Payload (little endian): ids, ball radius, persp section, omni section; every float
+// Blob. Payload (little endian): ids, ball radius, persp section, omni section, field section
+// (version 2); every float
 // is checked when parsing. Parsing runs twice over the payload: once to validate (dst null),
 // once to store, so `out` is untouched on any error without a second RigCalibration on the
 // stack.
@@ -236,6 +237,29 @@ namespace {
 
 constexpr uint32_t kPerspTag = 0x50455253u;  // "SREP"
 constexpr uint32_t kOmniTag = 0x494E4D4Fu;   // "OMNI"
+constexpr uint32_t kFieldTag = 0x444C4946u;  // "FILD", from blob version 2
+
+// The field section's floats, in blob order.
+constexpr int kFieldFloats = 15;
+template <typename Config, typename Float>
+void FieldFloats(Config& f, Float* (&v)[kFieldFloats]) {
+  Float* all[kFieldFloats] = {&f.length_m,
+                              &f.width_m,
+                              &f.line_width_m,
+                              &f.center_circle_radius_m,
+                              &f.penalty_area_depth_m,
+                              &f.penalty_area_width_m,
+                              &f.goal_area_depth_m,
+                              &f.goal_area_width_m,
+                              &f.penalty_mark_distance_m,
+                              &f.corner_arc_radius_m,
+                              &f.goal_width_m,
+                              &f.goal_height_m,
+                              &f.goal_depth_m,
+                              &f.border_m,
+                              &f.margin_m};
+  for (int i = 0; i < kFieldFloats; ++i) v[i] = all[i];
+}
 
 void WritePersp(ByteWriter& w, const PerspCalibration& p) {
   w.U32(kPerspTag);
@@ -259,6 +283,13 @@ void WriteOmni(ByteWriter& w, const OmniCalibration& o) {
   for (const auto& row : o.support_px)
     for (float f : row) w.F32(f);
   for (uint8_t f : o.sector_flags) w.U8(f);
+}
+
+void WriteField(ByteWriter& w, const FieldConfig& f) {
+  w.U32(kFieldTag);
+  const float* v[kFieldFloats];
+  FieldFloats(f, v);
+  for (const float* p : v) w.F32(*p);
 }
 
 // Reads a float; fails (sticky) unless finite and in [lo, hi].
@@ -384,7 +415,21 @@ void ReadOmni(CheckedReader& r, OmniCalibration* dst) {
   }
 }
 
-void ReadRig(CheckedReader& r, RigCalibration* dst) {
+// Version 1 blobs have no field section: the MSL defaults.
+void ReadField(CheckedReader& r, FieldConfig* dst) {
+  if (r.U32() != kFieldTag) r.Fail(StatusCode::kDataLoss, "calibration blob: field tag missing");
+  FieldConfig f;
+  float* v[kFieldFloats];
+  FieldFloats(f, v);
+  for (float* p : v) *p = r.F(-kBig, kBig, "calibration blob: field value not finite");
+  if (r.status().ok()) {
+    const Status s = ValidateFieldConfig(f);
+    if (!s.ok()) r.Fail(StatusCode::kInvalidArgument, s.message());
+  }
+  if (dst != nullptr) *dst = f;
+}
+
+void ReadRig(CheckedReader& r, RigCalibration* dst, uint16_t version) {
   const uint32_t id = r.U32();
   const uint32_t lut = r.U32();
   const float ball = r.F(0.01f, 1.0f, "calibration blob: ball_radius_m out of range");
@@ -395,6 +440,11 @@ void ReadRig(CheckedReader& r, RigCalibration* dst) {
   }
   ReadPersp(r, dst != nullptr ? &dst->persp : nullptr);
   ReadOmni(r, dst != nullptr ? &dst->omni : nullptr);
+  if (version >= 2) {
+    ReadField(r, dst != nullptr ? &dst->field : nullptr);
+  } else if (dst != nullptr) {
+    dst->field = FieldConfig{};
+  }
   if (r.status().ok() && r.remaining() != 0) {
     r.Fail(StatusCode::kDataLoss, "calibration blob: trailing bytes in payload");
   }
@@ -412,6 +462,7 @@ Result<size_t> SerializeCalibration(const RigCalibration& cal, std::span<uint8_t
   w.F32(cal.ball_radius_m);
   WritePersp(w, cal.persp);
   WriteOmni(w, cal.omni);
+  WriteField(w, cal.field);
   if (!w.ok()) {
     return Status(StatusCode::kResourceExhausted, "calibration blob: output buffer too small");
   }
@@ -419,7 +470,7 @@ Result<size_t> SerializeCalibration(const RigCalibration& cal, std::span<uint8_t
   // Validate what we wrote: never produce a blob the device would reject.
   {
     CheckedReader check(out.subspan(kBlobHeaderBytes, payload_len));
-    ReadRig(check, nullptr);
+    ReadRig(check, nullptr, kCalibrationBlobVersion);
     BV_TRY(check.status());
   }
   // Header in core/common/blob.h's layout, written after the payload so no copy is needed.
@@ -436,10 +487,10 @@ Status ParseCalibration(std::span<const uint8_t> blob, RigCalibration& out) {
   BV_TRY_ASSIGN(const BlobView view,
                 ReadBlob(blob, BlobKind::kCalibration, kCalibrationBlobVersion));
   CheckedReader check(view.payload);
-  ReadRig(check, nullptr);
+  ReadRig(check, nullptr, view.version);
   BV_TRY(check.status());
   CheckedReader store(view.payload);
-  ReadRig(store, &out);
+  ReadRig(store, &out, view.version);
   return store.status();
 }
 

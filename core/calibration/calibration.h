@@ -9,6 +9,7 @@
 #include <Eigen/Core>
 
 #include "core/common/status.h"
+#include "core/field/field_config.h"
 
 namespace bv {
 
@@ -58,6 +59,7 @@ struct RigCalibration {
   float ball_radius_m = 0.11f;
   PerspCalibration persp;
   OmniCalibration omni;
+  FieldConfig field;  // the venue (MSL defaults; blob version 1 has none)
 };
 
 // --- perspective camera ---
@@ -83,7 +85,8 @@ Status OmniProject(const OmniCalibration& cal, const Eigen::Vector3f& p_robot, f
                    float& v_px);
 
 // --- the device blob (BlobKind::kCalibration, see core/common/blob.h) ---
-inline constexpr uint16_t kCalibrationBlobVersion = 1;
+// Version 2 added the field section; version 1 blobs still load, with the MSL field.
+inline constexpr uint16_t kCalibrationBlobVersion = 2;
 /// Upper bound of a serialised calibration blob, header included.
 inline constexpr size_t kCalibrationBlobMaxBytes = 4096;
 Result<size_t> SerializeCalibration(const RigCalibration& cal, std::span<uint8_t> out);

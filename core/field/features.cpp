@@ -11,6 +11,17 @@ namespace {
 constexpr float kPi = 3.14159265358979f;
 constexpr int kEdgeBisections = 4;      // ray spacing / 16 (0.35 deg with 64 rays)
 constexpr float kEdgeProbeInsetPx = 3;  // probe this far beyond the foot, inside the obstacle
+// Goals: the carpet must end for this many samples (net, back of the goal) ...
+constexpr int kGoalTailSamples = 4;
+// ... between 0.3 and 2 goal depths (+ 0.2 m) behind the last line (the goal line; an oblique
+// ray runs longer inside the goal); elsewhere it runs on for the border (1.5 m + in the MSL).
+constexpr float kGoalMinDepths = 0.3f, kGoalMaxDepths = 2.0f, kGoalDepthSlackM = 0.2f;
+constexpr float kPostMinM = 0.4f;         // a white run off the field this long is a post
+constexpr int kCarpetResumes = 8;         // green samples in a row: the carpet went on (not a goal)
+constexpr float kGoalStepM = 0.8f;        // neighbouring rays of one goal: goal lines this close
+constexpr float kGoalChordSlackM = 0.8f;  // seen mouth at most goal width + this
+
+float WrapPi(float a) { return std::remainder(a, 2.0f * kPi); }
 
 float RayAngle(int ray, int rays) {
   return 2.0f * kPi * static_cast<float>(ray) / static_cast<float>(rays);
@@ -50,7 +61,8 @@ Status FieldFeatureExtractor::Init(const OmniScanConfig& scan, const OmniCalibra
   if (!(config.line_width_m > 0.0f) || !(config.min_width_factor > 0.0f) ||
       !(config.max_width_factor > config.min_width_factor) || config.min_obstacle_samples < 1 ||
       !(config.max_line_range_m > 0.0f) || !(config.max_obstacle_range_m > 0.0f) ||
-      !(config.obstacle_merge_m > 0.0f)) {
+      !(config.obstacle_merge_m > 0.0f) || !(config.goal_width_m > 0.0f) ||
+      !(config.goal_depth_m > 0.0f) || config.min_goal_rays < 1) {
     return Status(StatusCode::kInvalidArgument, "field features: bad configuration");
   }
   scan_ = scan;
@@ -62,6 +74,12 @@ Status FieldFeatureExtractor::Init(const OmniScanConfig& scan, const OmniCalibra
 
 bool FieldFeatureExtractor::Ground(float u, float v, float& x, float& y) const {
   return OmniPixelToGround(*cal_, u, v, x, y).ok();
+}
+
+float FieldFeatureExtractor::GroundDistance(float r, float cs, float sn) const {
+  float x, y;
+  if (!Ground(scan_.center_u + r * cs, scan_.center_v + r * sn, x, y)) return -1.0f;
+  return std::hypot(x, y);
 }
 
 void FieldFeatureExtractor::AddLinePoint(float r_in, float r_out, float cs, float sn, int ray,
@@ -86,8 +104,37 @@ void FieldFeatureExtractor::AddLinePoint(float r_in, float r_out, float cs, floa
   LinePoint& p = out.lines[out.line_count++];
   p.x_m = x;
   p.y_m = y;
-  p.width_m = width;
   p.ray = static_cast<uint8_t>(ray);
+}
+
+// After a ray's walk (no obstacle on it): where the carpet ended (the first run of off-carpet
+// samples it did not resume after). Inside a goal it ends at the back, a goal depth behind the goal
+// line; a post is a long white run right off the carpet (vertical: the mirror stretches it
+// radially). Elsewhere the carpet runs on for the border.
+void FieldFeatureExtractor::GoalEvidence(int ray, const GoalWalk& g, float cs, float sn) {
+  if (g.end < 0) return;
+  const float end_m = GroundDistance(Mid(g.end, g.end + 1), cs, sn);
+  if (!(end_m > 0.0f) || end_m > config_.max_line_range_m) return;
+  float goal_m = -1.0f;
+  bool post = false;
+  if (g.post_w0 >= 0) {
+    const float w1 =
+        GroundDistance(Mid(g.post_w1, std::min(g.post_w1 + 1, inside_[ray] - 1)), cs, sn);
+    if (w1 < 0.0f || w1 - end_m >= kPostMinM) {
+      goal_m = end_m;
+      post = true;
+    }
+  }
+  const float depth = config_.goal_depth_m;
+  const float line_m = !post && g.break_r > 0.0f ? GroundDistance(g.break_r, cs, sn) : -1.0f;
+  if (!post && line_m > 0.0f && end_m - line_m >= kGoalMinDepths * depth &&
+      end_m - line_m <= kGoalMaxDepths * depth + kGoalDepthSlackM) {
+    goal_m = line_m;
+  }
+  if (goal_m > 0.0f) {
+    hits_[ray].goal_cm = static_cast<uint16_t>(std::clamp(goal_m * 100.0f, 1.0f, 65535.0f));
+    hits_[ray].post = post;
+  }
 }
 
 // One ray, inside out. A white run counts when green lies on both sides (at most one unclassified
@@ -100,23 +147,55 @@ void FieldFeatureExtractor::ScanRay(const YuyvImage& img, const ColorLut& lut, i
   const float sn = static_cast<float>(q.sn_q14) * (1.0f / 16384.0f);
   int last_green = -10, white_start = -1, last_white = -10, green_before_white = -10;
   int dark_start = -1, dark_count = 0, green_before_dark = -10;
+  int tail_w0 = -1, tail_w1 = -1;  // first white run after the last green sample
+  bool tail_closed = false;
+  float break_r = -1.0f;  // image radius of the last short break in the carpet (a line)
+  GoalWalk goal;
+  int green_run = 0;
   const int n = inside_[ray];
   out.lookups += static_cast<uint32_t>(n);
+  // Locals: the writes to `out` below may alias anything the compiler cannot see through, so
+  // members read in the loop would be reloaded every sample (the hot loop of the feature pass).
+  const OmniRayQ ray_q = q;
+  const uint8_t* const data = img.data;
+  const int stride = img.stride_bytes;
+  const int32_t* const radii = radii_q4_;
   for (int k = 0; k < n; ++k) {
     int u, v;
-    OmniRayPixel(q, radii_q4_[k], u, v);
+    OmniRayPixel(ray_q, radii[k], u, v);
     // Inside the frame by construction (inside_), so no bounds test in this loop.
-    const uint8_t* pair = img.data + v * img.stride_bytes + (u & ~1) * 2;
+    const uint8_t* pair = data + v * stride + (u & ~1) * 2;
     const ColorClass c = lut.Classify(pair[(u & 1) * 2], pair[1], pair[3]);
     if (c == ColorClass::kField) {
+      if (k == last_green + 1) {  // the carpet goes on (most samples): nothing else changes
+        last_green = k;
+        if (goal.end >= 0 && ++green_run >= kCarpetResumes) goal = GoalWalk{};
+        continue;
+      }
       if (white_start >= 0 && k - last_white <= 2 && white_start - green_before_white <= 2) {
         AddLinePoint(Mid(green_before_white, white_start), Mid(last_white, k), cs, sn, ray, out);
       }
+      // A line, or one in shadow (unclassified): 1-3 samples off the carpet between green.
+      if (k - last_green >= 2 && k - last_green <= 4 && last_green >= 0)
+        break_r = Mid(last_green, k);
+      if (goal.end >= 0) {
+        if (goal.post_w0 < 0 && tail_w0 >= 0 && tail_w0 - goal.end <= 2) {
+          goal.post_w0 = tail_w0;
+          goal.post_w1 = tail_w1;
+        }
+        green_run = 1;  // counted on by the fast path above: 8 in a row, the carpet resumed
+      }
       white_start = -1;
+      tail_w0 = -1;
+      tail_closed = false;
       dark_start = -1;
       dark_count = 0;
       last_green = k;
     } else if (c == ColorClass::kLine) {
+      if (goal.end < 0 && k - last_green == kGoalTailSamples && last_green >= 0) {
+        goal.end = last_green;
+        goal.break_r = break_r;
+      }
       if (white_start < 0) {
         white_start = k;
         green_before_white = last_green;
@@ -124,8 +203,18 @@ void FieldFeatureExtractor::ScanRay(const YuyvImage& img, const ColorLut& lut, i
       last_white = k;
       dark_start = -1;
       dark_count = 0;
+      if (tail_w0 < 0) {
+        tail_w0 = tail_w1 = k;
+      } else if (!tail_closed && k - tail_w1 <= 2) {
+        tail_w1 = k;
+      }
     } else if (c == ColorClass::kObstacle) {
+      if (goal.end < 0 && k - last_green == kGoalTailSamples && last_green >= 0) {
+        goal.end = last_green;
+        goal.break_r = break_r;
+      }
       white_start = -1;
+      if (tail_w0 >= 0 && k - tail_w1 > 2) tail_closed = true;
       if (dark_start < 0) {
         dark_start = k;
         green_before_dark = last_green;
@@ -143,10 +232,20 @@ void FieldFeatureExtractor::ScanRay(const YuyvImage& img, const ColorLut& lut, i
         }
         return;
       }
-    } else if (k - last_white > 2 && k - last_green > 2) {
-      white_start = -1;  // a long unclassified gap: no line here
+    } else {
+      if (goal.end < 0 && k - last_green == kGoalTailSamples && last_green >= 0) {
+        goal.end = last_green;
+        goal.break_r = break_r;
+      }
+      if (k - last_white > 2 && k - last_green > 2) white_start = -1;  // no line here
+      if (tail_w0 >= 0 && k - tail_w1 > 2) tail_closed = true;
     }
   }
+  if (goal.end >= 0 && goal.post_w0 < 0 && tail_w0 >= 0 && tail_w0 - goal.end <= 2) {
+    goal.post_w0 = tail_w0;
+    goal.post_w1 = tail_w1;
+  }
+  GoalEvidence(ray, goal, cs, sn);
 }
 
 // Between rays (edge bisection): the same rounding as a ray's samples.
@@ -230,16 +329,109 @@ void FieldFeatureExtractor::MergeObstacles(const YuyvImage& img, const ColorLut&
     o.x_m = x * (d + radius) / d;
     o.y_m = y * (d + radius) / d;
     o.radius_m = radius;
-    o.foot_m = foot_m;
-    o.bearing_rad = std::atan2(y, x);
-    o.half_width_rad = half;
+  }
+}
+
+// Adjacent rays with goal evidence at similar distances (a strut ray or one ray that missed is
+// bridged) form one goal, if the mouth they saw is no wider than a goal.
+void FieldFeatureExtractor::MergeGoals(FieldFeatures& out) {
+  const int n = scan_.features.rays;
+  const float step = RayAngle(1, n);
+  int start = -1;
+  for (int i = 0; i < n && start < 0; ++i) {
+    if (hits_[i].goal_cm == 0 && !Blocked(i)) start = i;
+  }
+  if (start < 0) return;
+  const auto dir = [&](int i, float& dx, float& dy) {  // robot-frame unit vector of ray i
+    const float r = Mid(inside_[i] / 2, inside_[i] / 2);
+    const float a = RayAngle(i, n);
+    float x, y;
+    if (!Ground(scan_.center_u + r * std::cos(a), scan_.center_v + r * std::sin(a), x, y)) {
+      return false;
+    }
+    const float d = std::hypot(x, y);
+    if (!(d > 1e-3f)) return false;
+    dx = x / d;
+    dy = y / d;
+    return true;
+  };
+  for (int off = 1; off <= n; ++off) {
+    const int i0 = (start + off) % n;
+    if (hits_[i0].goal_cm == 0) continue;
+    int first = i0, last = i0, count = 1, posts = hits_[i0].post ? 1 : 0, misses = 0;
+    int j = off + 1;
+    for (; j <= n; ++j) {
+      const int i = (start + j) % n;
+      if (hits_[i].goal_cm == 0) {
+        if (Blocked(i)) continue;
+        if (++misses > 1) break;
+        continue;
+      }
+      if (std::fabs(static_cast<float>(hits_[i].goal_cm) -
+                    static_cast<float>(hits_[last].goal_cm)) > kGoalStepM * 100.0f) {
+        break;
+      }
+      misses = 0;
+      last = i;
+      ++count;
+      posts += hits_[i].post ? 1 : 0;
+    }
+    off = j - 1;
+    if (count < config_.min_goal_rays) continue;
+    float sx = 0, sy = 0, fx = 0, fy = 0, lx = 0, ly = 0;
+    int used = 0;
+    bool ok = true;
+    for (int i = first; ok; i = (i + 1) % n) {
+      if (hits_[i].goal_cm != 0) {
+        float dx, dy;
+        if (!dir(i, dx, dy)) {
+          ok = false;
+          break;
+        }
+        const float d = static_cast<float>(hits_[i].goal_cm) * 0.01f;
+        sx += d * dx;
+        sy += d * dy;
+        if (i == first) {
+          fx = dx;
+          fy = dy;
+        }
+        if (i == last) {
+          lx = dx;
+          ly = dy;
+        }
+        ++used;
+      }
+      if (i == last) break;
+    }
+    if (!ok || used == 0) continue;
+    const float df = static_cast<float>(hits_[first].goal_cm) * 0.01f;
+    const float dl = static_cast<float>(hits_[last].goal_cm) * 0.01f;
+    if (std::hypot(df * fx - dl * lx, df * fy - dl * ly) >
+        config_.goal_width_m + kGoalChordSlackM) {
+      continue;  // wider than a goal: the hall or the boards, not a goal
+    }
+    if (out.goal_count >= FieldFeatures::kMaxGoals) {
+      ++out.goals_dropped;
+      continue;
+    }
+    const float b0 = std::atan2(fy, fx), span = WrapPi(std::atan2(ly, lx) - b0);
+    Goal& g = out.goals[out.goal_count++];
+    g.x_m = sx / static_cast<float>(used);
+    g.y_m = sy / static_cast<float>(used);
+    g.distance_m = std::hypot(g.x_m, g.y_m);
+    g.bearing_rad = WrapPi(b0 + 0.5f * span);
+    g.half_width_rad = 0.5f * (std::fabs(span) + step);
+    g.rays = static_cast<uint8_t>(count);
+    g.post_rays = static_cast<uint8_t>(posts);
+    g.which = 0;
+    g.which_ambiguous = true;
   }
 }
 
 Status FieldFeatureExtractor::Extract(const YuyvImage& omni, const ColorLut& lut,
                                       FieldFeatures& out) {
-  out.line_count = out.obstacle_count = 0;
-  out.lines_dropped = out.obstacles_dropped = 0;
+  out.line_count = out.obstacle_count = out.goal_count = 0;
+  out.lines_dropped = out.obstacles_dropped = out.goals_dropped = out.goals_refused = 0;
   out.lookups = 0;
   if (!ready_) return Status(StatusCode::kFailedPrecondition, "field features: not initialised");
   if (omni.data == nullptr || omni.width != kFrameWidth || omni.height != kFrameHeight ||
@@ -251,6 +443,7 @@ Status FieldFeatureExtractor::Extract(const YuyvImage& omni, const ColorLut& lut
     if (!Blocked(i)) ScanRay(omni, lut, i, out);
   }
   MergeObstacles(omni, lut, out);
+  MergeGoals(out);
   return Status::Ok();
 }
 

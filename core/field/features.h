@@ -22,16 +22,26 @@ namespace bv {
 
 struct LinePoint {
   float x_m = 0, y_m = 0;  // robot frame, floor
-  float width_m = 0;       // white run's length along the ray
   uint8_t ray = 0;         // feature ray index (neighbourhood for the heading estimate)
 };
 
+// Centre and radius only (foot distance and angular width, derivable and never read, went for
+// RAM: 192 B).
 struct Obstacle {
   float x_m = 0, y_m = 0;  // footprint centre, robot frame
   float radius_m = 0;      // footprint radius
-  float foot_m = 0;        // distance of the nearest point (foot) from the robot centre
-  float bearing_rad = 0;   // robot frame, CCW from +x, of the centre
-  float half_width_rad = 0;
+};
+
+/// A goal seen from the field: the mouth (goal line between the posts) as far as the rays saw it.
+struct Goal {
+  float x_m = 0, y_m = 0;    // centre of the seen part of the mouth, robot frame
+  float distance_m = 0;      // hypot(x, y)
+  float bearing_rad = 0;     // robot frame, CCW from +x: middle of the angular range
+  float half_width_rad = 0;  // the range is bearing +- half_width (edges: half a ray beyond)
+  uint8_t rays = 0;          // rays that saw it
+  uint8_t post_rays = 0;     // of those, rays that hit a post (a long white run off the field)
+  int8_t which = 0;  // from the pose (pipeline): +1 the goal at field +X, -1 at -X, 0 unknown
+  bool which_ambiguous = true;  // the pose is ambiguous: `which` may be the other goal
 };
 
 struct FieldFeatureConfig {
@@ -42,6 +52,11 @@ struct FieldFeatureConfig {
   float max_obstacle_range_m = 6.0f;  // foot points beyond are not reported
   int min_obstacle_samples = 3;       // dark samples in a row before it counts
   float obstacle_merge_m = 0.6f;      // adjacent-ray feet closer than this: one obstacle
+  // Goals (the pipeline copies them from the calibration's field): the carpet ends at the back
+  // of the goal, goal_depth behind the goal line, where elsewhere it runs on past the lines.
+  float goal_width_m = 2.0f;
+  float goal_depth_m = 0.6f;
+  int min_goal_rays = 2;  // a goal seen on fewer rays is not reported
 };
 
 struct FieldFeatures {
@@ -53,7 +68,13 @@ struct FieldFeatures {
   Obstacle obstacles[kMaxObstacles];
   int obstacle_count = 0;
   uint32_t obstacles_dropped = 0;
-  uint32_t lookups = 0;  // LUT lookups of this pass (the pixels are the scan table's)
+  static constexpr int kMaxGoals = 2;
+  Goal goals[kMaxGoals];
+  int goal_count = 0;
+  uint32_t goals_dropped = 0;  // over capacity
+  uint32_t goals_refused = 0;  // removed by the pipeline: where the pose puts no goal, or on
+                               // fewer than 3 rays while there is no pose to check them
+  uint32_t lookups = 0;        // LUT lookups of this pass (the pixels are the scan table's)
 };
 
 class FieldFeatureExtractor {
@@ -75,9 +96,21 @@ class FieldFeatureExtractor {
   struct RayHit {
     float foot_r = -1;  // image radius of the obstacle foot, < 0: none on this ray
     float foot_m = 0;
+    // Goal evidence: the goal line's ground distance on this ray (cm, 0: none) and whether the
+    // ray hit a post.
+    uint16_t goal_cm = 0;
+    bool post = false;
   };
   void ScanRay(const YuyvImage& img, const ColorLut& lut, int ray, FieldFeatures& out);
   void AddLinePoint(float r_in, float r_out, float cs, float sn, int ray, FieldFeatures& out);
+  struct GoalWalk {                  // one ray's goal evidence (ScanRay)
+    int end = -1;                    // last carpet sample before the first run off it that lasted
+    float break_r = -1;              // image radius of the last short break (a line) before it
+    int post_w0 = -1, post_w1 = -1;  // white run right after it
+  };
+  void GoalEvidence(int ray, const GoalWalk& g, float cs, float sn);
+  void MergeGoals(FieldFeatures& out);
+  float GroundDistance(float r, float cs, float sn) const;
   void MergeObstacles(const YuyvImage& img, const ColorLut& lut, FieldFeatures& out);
   bool DarkAt(const YuyvImage& img, const ColorLut& lut, float angle, float r, FieldFeatures& out);
   void Pixel(float angle, float r, int& u, int& v) const;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 namespace bv {
 namespace {
@@ -15,43 +16,63 @@ bool NonNegative(float v) { return std::isfinite(v) && v >= 0.0f; }
 
 Status ValidateFieldConfig(const FieldConfig& f) {
   const auto bad = [](const char* what) { return Status(StatusCode::kInvalidArgument, what); };
-  if (!Positive(f.length_m) || !Positive(f.width_m) || f.length_m > 40.0f || f.width_m > 30.0f) {
-    return bad("field: length and width must be > 0 and at most 40 x 30 m");
+  if (!Positive(f.length_m) || f.length_m > 40.0f) {
+    return bad("field.length_m: not finite or outside (0, 40] m");
+  }
+  if (!Positive(f.width_m) || f.width_m > 30.0f) {
+    return bad("field.width_m: not finite or outside (0, 30] m");
   }
   if (!Positive(f.line_width_m) || f.line_width_m > 0.5f) {
-    return bad("field: line_width_m must be in (0, 0.5]");
+    return bad("field.line_width_m: not finite or outside (0, 0.5] m");
   }
   if (!NonNegative(f.center_circle_radius_m) ||
       2.0f * f.center_circle_radius_m > std::min(f.length_m, f.width_m)) {
-    return bad("field: centre circle radius negative or the circle leaves the field");
+    return bad("field.center_circle_radius_m: negative or the circle leaves the field");
   }
-  if (!Positive(f.penalty_area_depth_m) || !Positive(f.penalty_area_width_m) ||
-      f.penalty_area_width_m > f.width_m || f.penalty_area_depth_m >= 0.5f * f.length_m) {
-    return bad("field: penalty area not positive, wider than the field or deeper than half");
+  if (!Positive(f.penalty_area_depth_m) || f.penalty_area_depth_m >= 0.5f * f.length_m) {
+    return bad("field.penalty_area_depth_m: not positive or deeper than half the field");
   }
-  if (!Positive(f.goal_area_depth_m) || !Positive(f.goal_area_width_m) ||
-      f.goal_area_width_m > f.penalty_area_width_m ||
-      f.goal_area_depth_m > f.penalty_area_depth_m) {
-    return bad("field: goal area not positive or larger than the penalty area");
+  if (!Positive(f.penalty_area_width_m) || f.penalty_area_width_m > f.width_m) {
+    return bad("field.penalty_area_width_m: not positive or wider than the field");
+  }
+  if (!Positive(f.goal_area_depth_m) || f.goal_area_depth_m > f.penalty_area_depth_m) {
+    return bad("field.goal_area_depth_m: not positive or deeper than the penalty area");
+  }
+  if (!Positive(f.goal_area_width_m) || f.goal_area_width_m > f.penalty_area_width_m) {
+    return bad("field.goal_area_width_m: not positive or wider than the penalty area");
   }
   if (!NonNegative(f.penalty_mark_distance_m) || f.penalty_mark_distance_m >= 0.5f * f.length_m) {
-    return bad("field: penalty mark distance negative or beyond the halfway line");
+    return bad("field.penalty_mark_distance_m: negative or beyond the halfway line");
   }
   if (!NonNegative(f.corner_arc_radius_m) ||
       f.corner_arc_radius_m > 0.5f * std::min(f.length_m, f.width_m)) {
-    return bad("field: corner arc radius negative or larger than half the field");
+    return bad("field.corner_arc_radius_m: negative or larger than half the field");
   }
   if (!Positive(f.goal_width_m) || f.goal_width_m > f.width_m) {
-    return bad("field: goal width not positive or wider than the field");
+    return bad("field.goal_width_m: not positive or wider than the field");
   }
-  if (!NonNegative(f.border_m) || f.border_m > 5.0f || !NonNegative(f.margin_m) ||
-      f.margin_m > 2.0f) {
-    return bad("field: border_m must be in [0, 5] and margin_m in [0, 2]");
+  if (!Positive(f.goal_height_m) || f.goal_height_m > 3.0f) {
+    return bad("field.goal_height_m: not finite or outside (0, 3] m");
+  }
+  if (!Positive(f.goal_depth_m) || f.goal_depth_m > 3.0f) {
+    return bad("field.goal_depth_m: not finite or outside (0, 3] m");
+  }
+  if (!NonNegative(f.border_m) || f.border_m > 5.0f) {
+    return bad("field.border_m: not finite or outside [0, 5] m");
+  }
+  if (!NonNegative(f.margin_m) || f.margin_m > 2.0f) {
+    return bad("field.margin_m: not finite or outside [0, 2] m");
   }
   return Status::Ok();
 }
 
+// Segments are axis-parallel (every line of the field is): stored as the box (a, b) - (c, d) with
+// a <= c, b <= d, the nearest point is a clamp of each coordinate: no projection, no division.
 void FieldModel::Add(uint8_t kind, float a, float b, float c, float d) {
+  if (kind == 0) {
+    if (a > c) std::swap(a, c);
+    if (b > d) std::swap(b, d);
+  }
   if (count_ < kMaxPrimitives) prims_[count_++] = Primitive{kind, a, b, c, d};
 }
 
@@ -77,6 +98,7 @@ Status FieldModel::Init(const FieldConfig& f) {
 
   const float ex = hl + f.border_m + 0.5f, ey = hw + f.border_m + 0.5f;
   cell_m_ = std::max({0.1f, ex / kMaxCellsX, ey / kMaxCellsY});
+  inv_cell_ = 1.0f / cell_m_;
   cells_x_ = std::min(kMaxCellsX, static_cast<int>(std::ceil(ex / cell_m_)));
   cells_y_ = std::min(kMaxCellsY, static_cast<int>(std::ceil(ey / cell_m_)));
   for (int j = 0; j < cells_y_; ++j) {
@@ -104,12 +126,8 @@ float FieldModel::PrimitiveDistance(const Primitive& p, float x, float y, float&
                                     float& gy) const {
   float qx = p.a, qy = p.b;  // nearest point of the primitive
   if (p.kind == 0) {
-    const float dx = p.c - p.a, dy = p.d - p.b;
-    const float len2 = dx * dx + dy * dy;
-    const float t =
-        len2 > 0.0f ? std::clamp(((x - p.a) * dx + (y - p.b) * dy) / len2, 0.0f, 1.0f) : 0.0f;
-    qx = p.a + t * dx;
-    qy = p.b + t * dy;
+    qx = std::min(std::max(x, p.a), p.c);
+    qy = std::min(std::max(y, p.b), p.d);
   } else if (p.kind == 1) {
     // Quarter arcs start at an axis (angle d = 0 or pi): the point is within the arc's angle
     // when both offsets have the quarter's signs; else the nearer end. No trigonometry.
@@ -153,6 +171,28 @@ float FieldModel::Distance(float x_m, float y_m, float& gx, float& gy) const {
   gx *= sx;
   gy *= sy;
   return d;
+}
+
+// The global search's inner loop: the squared distance only (its error function needs no more),
+// so no gradient, no division and a square root for arcs alone.
+float FieldModel::Distance2(float x_m, float y_m) const {
+  const float ax = std::fabs(x_m), ay = std::fabs(y_m);
+  if (!(ax < 1e3f) || !(ay < 1e3f)) return 1e6f;
+  const int i = std::min(static_cast<int>(ax * inv_cell_), cells_x_ - 1);
+  const int j = std::min(static_cast<int>(ay * inv_cell_), cells_y_ - 1);
+  const Primitive& p = prims_[(nearest_[j][i >> 1] >> ((i & 1) * 4)) & 0x0F];
+  if (p.kind == 0) {
+    const float ex = ax - std::min(std::max(ax, p.a), p.c);
+    const float ey = ay - std::min(std::max(ay, p.b), p.d);
+    return ex * ex + ey * ey;
+  }
+  if (p.kind == 1) {
+    float gx, gy;
+    const float d = PrimitiveDistance(p, ax, ay, gx, gy);
+    return d * d;
+  }
+  const float ex = ax - p.a, ey = ay - p.b;
+  return ex * ex + ey * ey;
 }
 
 bool FieldModel::Inside(float x_m, float y_m, float margin_m) const {

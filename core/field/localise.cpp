@@ -9,7 +9,8 @@ namespace bv {
 namespace {
 
 constexpr float kPi = 3.14159265358979f;
-constexpr int kScorePoints = 24;  // points per coarse evaluation
+constexpr int kScorePoints = 24;    // points per coarse evaluation
+constexpr int kRefinePerFrame = 2;  // global search candidates refined per frame (~30 k instr each)
 // The coarse grid is scored with a wide error function (c = 2 grid steps): a grid point 0.25 m
 // from the true pose must still score better than a wrong pose that happens to sit on lines.
 constexpr float kSearchCPerGrid = 2.0f;
@@ -80,26 +81,36 @@ void Localiser::ApplyHalf() {
 }
 
 float Localiser::Score(const FieldFeatures& f, float x, float y, float h, int max_points) const {
-  if (f.line_count == 0) return 1.0f;
   const int stride = std::max(1, (f.line_count + max_points - 1) / std::max(1, max_points));
-  const float c = kSearchCPerGrid * config_.grid_m, c2 = c * c;
-  const float s = std::sin(h), co = std::cos(h);
-  float sum = 0.0f;
+  return Score(f, x, y, std::sin(h), std::cos(h), stride, FinitePoints(f, stride), 1e30f);
+}
+
+int Localiser::FinitePoints(const FieldFeatures& f, int stride) {
   int n = 0;
+  for (int i = 0; i < f.line_count; i += stride) n += Finite(f.lines[i]) ? 1 : 0;
+  return n;
+}
+
+// Mean error over every stride-th point (`points` of them finite). The terms are >= 0, so once
+// the running sum passes `give_up` (times the points) the pose cannot beat it: returned as is
+// (> give_up), the rest not scored.
+float Localiser::Score(const FieldFeatures& f, float x, float y, float s, float co, int stride,
+                       int points, float give_up) const {
+  if (points == 0) return 1.0f;
+  const float c = kSearchCPerGrid * config_.grid_m, c2 = c * c;
+  const float limit = give_up * static_cast<float>(points);
+  float sum = 0.0f;
   for (int i = 0; i < f.line_count; i += stride) {
     if (!Finite(f.lines[i])) continue;
     const float rx = f.lines[i].x_m, ry = f.lines[i].y_m;
-    const float fx = x + rx * s + ry * co, fy = y - rx * co + ry * s;
-    float gx, gy;
-    const float d = field_->Distance(fx, fy, gx, gy);
-    sum += 1.0f - c2 / (c2 + d * d);
-    ++n;
+    sum += 1.0f - c2 / (c2 + field_->Distance2(x + rx * s + ry * co, y - rx * co + ry * s));
+    if (sum > limit) break;
   }
-  return n > 0 ? sum / static_cast<float>(n) : 1.0f;
+  return sum / static_cast<float>(points);
 }
 
 Localiser::FitResult Localiser::Refine(const FieldFeatures& f, float x, float y, float h,
-                                       int iterations, float c, int stride) const {
+                                       int iterations, float c, int stride, bool covariance) const {
   FitResult r{x, y, h, 0, 0, 1.0f, 1.0f, 1.0f, 1.0f};
   const float c2 = c * c;
   Eigen::Matrix3f H;
@@ -142,6 +153,7 @@ Localiser::FitResult Localiser::Refine(const FieldFeatures& f, float x, float y,
     r.y += delta.y();
     r.h = WrapPi(r.h + delta.z());
   }
+  if (!covariance) return r;  // an intermediate step: only the pose is used
   H.diagonal() += Eigen::Vector3f::Constant(1e-6f);
   const Eigen::Matrix3f cov = H.inverse() * r.s2;
   r.h00 = cov(0, 0);
@@ -207,6 +219,7 @@ void Localiser::StartSearch(const FieldFeatures& f) {
   search_ny_ = static_cast<int>((fc.width_m + 1.0f) / config_.grid_m) + 1;
   search_total_ = 2 * search_nx_ * search_ny_;
   search_next_ = 0;
+  refine_next_ = 0;
   best_count_ = 0;
   searching_ = true;
   pose_.state = PoseEstimate::kSearching;
@@ -243,6 +256,14 @@ void Localiser::Keep(const Candidate& c) {
 void Localiser::ContinueSearch(const FieldFeatures& f) {
   const FieldConfig& fc = field_->config();
   const int end = std::min(search_total_, search_next_ + config_.evals_per_frame);
+  const bool evaluated = search_next_ < end;
+  float sin_h[2], cos_h[2];
+  for (int k = 0; k < 2; ++k) {
+    sin_h[k] = std::sin(search_h_[k]);
+    cos_h[k] = std::cos(search_h_[k]);
+  }
+  const int score_stride = std::max(1, (f.line_count + kScorePoints - 1) / kScorePoints);
+  const int score_points = FinitePoints(f, score_stride);
   for (; search_next_ < end; ++search_next_) {
     const int hk = search_next_ / (search_nx_ * search_ny_);
     const int rest = search_next_ % (search_nx_ * search_ny_);
@@ -250,43 +271,72 @@ void Localiser::ContinueSearch(const FieldFeatures& f) {
         -0.5f * fc.length_m - 0.5f + static_cast<float>(rest % search_nx_) * config_.grid_m;
     const float y =
         -0.5f * fc.width_m - 0.5f + static_cast<float>(rest / search_nx_) * config_.grid_m;
-    const float s = Score(f, x, y, search_h_[hk], kScorePoints);
+    // Only a pose better than the worst kept candidate can enter (Keep): stop scoring one that
+    // cannot. The kept list is the same as with full scores.
+    const float give_up = best_count_ == kMaxCandidates ? best_[kMaxCandidates - 1].score : 1e30f;
+    const float s = Score(f, x, y, sin_h[hk], cos_h[hk], score_stride, score_points, give_up);
     ++pose_.evaluations;
-    Keep(Candidate{x, y, search_h_[hk], s});
+    if (s < give_up) Keep(Candidate{x, y, search_h_[hk], s});
   }
-  if (search_next_ < search_total_) return;
-  searching_ = false;
-  // Refine every candidate on this frame's points, coarse to fine; keep the best fit. If another
-  // pose (not the symmetric twin) fits nearly as well, the lines seen do not tell where the robot
-  // is (two lines fit at many places): no pose, try again.
-  FitResult fits[kMaxCandidates];
-  int best = -1;
-  // Coarse to fine on a subsample (the cost of this frame), then the winner on every point.
+  // The refinement below costs more than a frame of the grid: it gets frames of its own, a few
+  // candidates each (each refined on that frame's points; they are compared by inlier ratio).
+  if (search_next_ < search_total_ || evaluated) return;
   const int stride = std::max(1, (f.line_count + kScorePoints - 1) / kScorePoints);
-  for (int k = 0; k < best_count_; ++k) {
-    FitResult r = Refine(f, best_[k].x, best_[k].y, best_[k].h, 2, 1.0f, stride);
-    r = Refine(f, r.x, r.y, r.h, 2, 0.5f, stride);
-    fits[k] = Refine(f, r.x, r.y, r.h, 1, config_.c_m, stride);
+  const int end_k = std::min(best_count_, refine_next_ + kRefinePerFrame);
+  for (; refine_next_ < end_k; ++refine_next_) {
+    Candidate& c = best_[refine_next_];
+    FitResult r = Refine(f, c.x, c.y, c.h, 2, 1.0f, stride, false);
+    r = Refine(f, r.x, r.y, r.h, 2, 0.5f, stride, false);
+    r = Refine(f, r.x, r.y, r.h, 1, config_.c_m, stride, false);
     pose_.evaluations += 5;
-    if (best < 0 || fits[k].inliers > fits[best].inliers) best = k;
+    c.x = r.x;
+    c.y = r.y;
+    c.h = r.h;
+    c.score = r.used > 0 ? static_cast<float>(r.inliers) / static_cast<float>(r.used) : 0.0f;
+    refined_inliers_[refine_next_] = static_cast<uint8_t>(std::min(r.inliers, 255));
   }
+  if (refine_next_ < best_count_) return;
+  searching_ = false;
+  // The best fit; if another pose (not the symmetric twin) fits nearly as well, the lines seen do
+  // not tell where the robot is (two lines fit at many places): no pose, try again.
+  int best = -1;
+  for (int k = 0; k < best_count_; ++k) {
+    if (best < 0 || best_[k].score > best_[best].score ||
+        (best_[k].score == best_[best].score && refined_inliers_[k] > refined_inliers_[best])) {
+      best = k;
+    }
+  }
+  const auto fit = [&](int k) {
+    FitResult r{};
+    r.x = best_[k].x;
+    r.y = best_[k].y;
+    r.h = best_[k].h;
+    return r;
+  };
+  FitResult win{};
+  if (best >= 0) {
+    // From the candidate's frame to this one the robot may have moved: a wider step first.
+    win = Refine(f, best_[best].x, best_[best].y, best_[best].h, 2, 0.5f, 1, false);
+    win = Refine(f, win.x, win.y, win.h, 2, config_.c_m);
+  }
+  // A rival that fitted nearly as well on its subsample is refitted on all of this frame's
+  // points, so that both are judged on the same points.
   bool unique = best >= 0;
   for (int k = 0; k < best_count_ && unique; ++k) {
-    if (k == best ||
-        static_cast<float>(fits[k].inliers) < 0.9f * static_cast<float>(fits[best].inliers)) {
+    if (k == best || best_[k].score < 0.9f * best_[best].score || SamePose(fit(k), fit(best))) {
       continue;
     }
-    unique = SamePose(fits[k], fits[best]);
+    const FitResult r = Refine(f, best_[k].x, best_[k].y, best_[k].h, 2, config_.c_m, 1, false);
+    pose_.evaluations += 3;
+    unique =
+        static_cast<float>(r.inliers) < 0.9f * static_cast<float>(win.inliers) || SamePose(r, win);
   }
-  if (best >= 0) {
-    fits[best] = Refine(f, fits[best].x, fits[best].y, fits[best].h, 2, config_.c_m);
-  }
-  const bool fits_well = best >= 0 && fits[best].inliers >= config_.min_points &&
-                         static_cast<float>(fits[best].inliers) >=
-                             config_.global_inlier_ratio * static_cast<float>(fits[best].used) &&
-                         Constrained(fits[best]);
+  const bool fits_well = best >= 0 && win.inliers >= config_.min_points &&
+                         static_cast<float>(win.inliers) >=
+                             config_.global_inlier_ratio * static_cast<float>(win.used) &&
+                         Constrained(win);
   if (unique && fits_well) {
-    Accept(fits[best], last_t_us_);
+    Accept(win);
     pose_.ambiguous = true;
     ApplyHalf();
   } else {
@@ -311,7 +361,7 @@ bool Localiser::SamePose(const FitResult& a, const FitResult& b) {
   return same || twin;
 }
 
-void Localiser::Accept(const FitResult& r, uint64_t) {
+void Localiser::Accept(const FitResult& r) {
   pose_.state = PoseEstimate::kTracking;
   pose_.x_m = r.x;
   pose_.y_m = r.y;
@@ -367,7 +417,7 @@ void Localiser::Update(const FieldFeatures& f, uint64_t t_us, const float* odome
     h.h = hint_.heading_rad;
     if (good(r) && SamePose(r, h)) {
       searching_ = false;
-      Accept(r, t_us);
+      Accept(r);
       pose_.ambiguous = false;
       last_t_us_ = t_us;
       return;
@@ -385,7 +435,7 @@ void Localiser::Update(const FieldFeatures& f, uint64_t t_us, const float* odome
     pose_.evaluations += static_cast<uint32_t>(config_.track_iterations);
     if (good(r)) {
       const bool ambiguous = pose_.ambiguous;
-      Accept(r, t_us);
+      Accept(r);
       pose_.ambiguous = ambiguous;
       last_t_us_ = t_us;
       return;

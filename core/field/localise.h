@@ -30,7 +30,7 @@ struct LocaliserConfig {
   float good_inlier_ratio = 0.5f;     // tracking: a fit this good keeps the pose
   float global_inlier_ratio = 0.75f;  // a global search result must fit this well
   int lost_after_bad_frames = 20;     // bad fits in a row: relocalise globally
-  int evals_per_frame = 150;          // global search budget (pose evaluations per frame)
+  int evals_per_frame = 100;          // global search budget (pose evaluations per frame)
   float grid_m = 0.5f;                // global search position grid
   float coast_pos_mps = 0.5f;         // sigma growth while coasting without odometry
   float coast_heading_radps = 0.2f;
@@ -80,6 +80,11 @@ class Localiser {
   float Score(const FieldFeatures& f, float x, float y, float h, int max_points) const;
 
  private:
+  // `give_up`: stop once the mean cannot stay below it (the global search's pruning).
+  float Score(const FieldFeatures& f, float x, float y, float s, float co, int stride, int points,
+              float give_up) const;
+  static int FinitePoints(const FieldFeatures& f, int stride);
+
   struct Candidate {
     float x, y, h, score;
   };
@@ -89,14 +94,14 @@ class Localiser {
     float h00, h11, h22, s2;
   };
   FitResult Refine(const FieldFeatures& f, float x, float y, float h, int iterations, float c,
-                   int stride = 1) const;
+                   int stride = 1, bool covariance = true) const;
   bool EstimateHeading(const FieldFeatures& f, float& h0) const;
   void StartSearch(const FieldFeatures& f);
   void Keep(const Candidate& c);
   static bool SamePose(const FitResult& a, const FitResult& b);
   bool Constrained(const FitResult& r) const;
   void ContinueSearch(const FieldFeatures& f);
-  void Accept(const FitResult& r, uint64_t t_us);
+  void Accept(const FitResult& r);
   void Coast(uint64_t t_us);
   void ApplyHalf();
 
@@ -111,8 +116,10 @@ class Localiser {
   bool searching_ = false;
   float search_h_[2] = {};
   int search_next_ = 0, search_total_ = 0, search_nx_ = 0, search_ny_ = 0;
-  Candidate best_[kMaxCandidates] = {};
+  Candidate best_[kMaxCandidates] = {};  // after refinement: the refined pose, score = inlier ratio
   int best_count_ = 0;
+  int refine_next_ = 0;
+  uint8_t refined_inliers_[kMaxCandidates] = {};
 };
 
 }  // namespace bv

@@ -23,6 +23,8 @@ constexpr char kSchema[] =
     "sigma_x sigma_y sigma_heading f32,quality f32;"
     "lines:t_us u64,found u16,count u8,reserved u8,count*(x_mm y_mm i16);"
     "obstacles:t_us u64,found count u8,count*(x_mm y_mm i16,radius_mm u16);"
+    "goals:t_us u64,found count u8,count*(x_mm y_mm bearing_mrad i16,half_width_mrad u16,"
+    "rays post_rays u8,which i8,flags u8);"
     "sync:id u32,t1_host_us t2_rx_us t3_tx_us u64;"
     "capture_frame:capture_id pair_index count u16,mode cameras u8,width height u16,"
     "exposure_us omni_exposure_us persp_exposure_us u64,omni_sequence persp_sequence u32,"
@@ -373,6 +375,77 @@ Status ParseObstacles(std::span<const uint8_t> payload, ObstaclesReport& out) {
     out.obstacles[i].y_mm = r.I16();
     out.obstacles[i].radius_mm = r.U16();
   }
+  return Status();
+}
+
+Result<size_t> EncodeGoals(const FieldFeatures& f, uint64_t t_us, uint32_t seq,
+                           std::span<uint8_t> out) {
+  const size_t n = f.goal_count > 0 ? static_cast<size_t>(f.goal_count) : 0;
+  const size_t found = n + f.goals_dropped;
+  uint8_t p[kGoalsHeaderBytes + kMaxGoalsPerPacket * kGoalBytes];
+  ByteWriter w(p);
+  w.U64(t_us);
+  w.U8(static_cast<uint8_t>(found > 0xFF ? 0xFF : found));
+  w.U8(0);  // count, patched below
+  uint8_t sent = 0;
+  for (size_t i = 0; i < n && i < kMaxGoalsPerPacket; ++i) {
+    const Goal& g = f.goals[i];
+    int16_t x = 0, y = 0;
+    const float b = g.bearing_rad * 1000.0f, hw = g.half_width_rad * 1000.0f;
+    if (!ToMm(g.x_m, x) || !ToMm(g.y_m, y) || !(std::fabs(b) <= 3142.0f) ||
+        !(hw >= 0.0f && hw <= 3142.0f) || g.post_rays > g.rays || g.which < -1 || g.which > 1) {
+      continue;
+    }
+    w.I16(x);
+    w.I16(y);
+    w.I16(static_cast<int16_t>(std::lround(b)));
+    w.U16(static_cast<uint16_t>(std::lround(hw)));
+    w.U8(g.rays);
+    w.U8(g.post_rays);
+    w.U8(static_cast<uint8_t>(g.which));
+    w.U8(g.which_ambiguous ? kGoalWhichAmbiguous : 0);
+    ++sent;
+  }
+  p[9] = sent;
+  return EncodeFrame(MsgType::kGoals, seq, w.written(), out);
+}
+
+Status ParseGoals(std::span<const uint8_t> payload, GoalsReport& out) {
+  if (payload.size() < kGoalsHeaderBytes) {
+    return Status(StatusCode::kInvalidArgument, "goals: payload too short");
+  }
+  ByteReader r(payload);
+  const uint64_t t_us = r.U64();
+  const uint8_t found = r.U8();
+  const uint8_t count = r.U8();
+  if (count > kMaxGoalsPerPacket || count > found) {
+    return Status(StatusCode::kInvalidArgument, "goals: count beyond capacity or found");
+  }
+  if (payload.size() != kGoalsHeaderBytes + count * kGoalBytes) {
+    return Status(StatusCode::kInvalidArgument, "goals: length disagrees with count");
+  }
+  GoalMm g[kMaxGoalsPerPacket];
+  for (size_t i = 0; i < count; ++i) {
+    g[i].x_mm = r.I16();
+    g[i].y_mm = r.I16();
+    g[i].bearing_mrad = r.I16();
+    g[i].half_width_mrad = r.U16();
+    g[i].rays = r.U8();
+    g[i].post_rays = r.U8();
+    g[i].which = static_cast<int8_t>(r.U8());
+    const uint8_t flags = r.U8();
+    if (g[i].bearing_mrad < -3142 || g[i].bearing_mrad > 3142 || g[i].half_width_mrad > 3142 ||
+        g[i].post_rays > g[i].rays || g[i].which < -1 || g[i].which > 1 ||
+        (flags & ~kGoalWhichAmbiguous) != 0) {
+      return Status(StatusCode::kInvalidArgument,
+                    "goals: bearing beyond pi, post_rays > rays, which not -1/0/1 or unknown flag");
+    }
+    g[i].which_ambiguous = (flags & kGoalWhichAmbiguous) != 0;
+  }
+  out.t_us = t_us;
+  out.found = found;
+  out.count = count;
+  for (size_t i = 0; i < count; ++i) out.goals[i] = g[i];
   return Status();
 }
 

@@ -33,6 +33,7 @@ enum class MsgType : uint8_t {
   kPose = 0x03,        // self-localisation, one per frame pair
   kLinePoints = 0x04,  // floor points on field lines, one per frame pair (decimated)
   kObstacles = 0x05,   // obstacle footprints, one per frame pair
+  kGoals = 0x06,       // goal mouths seen, one per frame pair
   // Clock sync and capture over the link (core/protocol/link.h); ids left free before them.
   kClockSyncReply = 0x0A,
   kCaptureFrame = 0x0B,  // one captured pair: exposure times, size, mode
@@ -68,6 +69,9 @@ inline constexpr size_t kLinePointBytes = 4;
 inline constexpr size_t kMaxObstaclesPerPacket = FieldFeatures::kMaxObstacles;
 inline constexpr size_t kObstaclesHeaderBytes = 10;
 inline constexpr size_t kObstacleBytes = 6;
+inline constexpr size_t kMaxGoalsPerPacket = FieldFeatures::kMaxGoals;
+inline constexpr size_t kGoalsHeaderBytes = 10;
+inline constexpr size_t kGoalBytes = 12;
 
 /// Health of the coprocessor, sent at least once per second.
 struct StatusReport {
@@ -141,6 +145,23 @@ struct ObstaclesReport {
   ObstacleMm obstacles[kMaxObstaclesPerPacket];
 };
 
+struct GoalMm {
+  int16_t x_mm = 0, y_mm = 0;    // centre of the seen part of the mouth, robot frame
+  int16_t bearing_mrad = 0;      // robot frame, CCW from +x
+  uint16_t half_width_mrad = 0;  // seen range: bearing +- half width
+  uint8_t rays = 0, post_rays = 0;
+  int8_t which = 0;  // +1 goal at field +X, -1 at -X, 0 unknown
+  bool which_ambiguous = false;
+};
+enum GoalFlags : uint8_t { kGoalWhichAmbiguous = 1 };
+/// Decoded goals packet.
+struct GoalsReport {
+  uint64_t t_us = 0;
+  uint8_t found = 0;  // goals found this frame (over capacity included)
+  uint8_t count = 0;
+  GoalMm goals[kMaxGoalsPerPacket];
+};
+
 enum class BlobState : uint8_t { kOk = 0, kMissing = 1, kCorrupt = 2 };
 
 // --- encoding: whole wire frames (COBS + delimiter), ready for Uart::Write ---
@@ -163,6 +184,10 @@ Result<size_t> EncodeLinePoints(const FieldFeatures& features, uint64_t t_us, ui
 Result<size_t> EncodeObstacles(const FieldFeatures& features, uint64_t t_us, uint32_t seq,
                                std::span<uint8_t> out);
 
+/// All goals (FieldFeatures holds at most kMaxGoalsPerPacket); unencodable ones skipped.
+Result<size_t> EncodeGoals(const FieldFeatures& features, uint64_t t_us, uint32_t seq,
+                           std::span<uint8_t> out);
+
 // --- decoding ---
 
 struct FrameView {
@@ -178,6 +203,7 @@ Status ParseStatus(std::span<const uint8_t> payload, StatusReport& out);
 Status ParsePose(std::span<const uint8_t> payload, PoseReport& out);
 Status ParseLinePoints(std::span<const uint8_t> payload, LinePointsReport& out);
 Status ParseObstacles(std::span<const uint8_t> payload, ObstaclesReport& out);
+Status ParseGoals(std::span<const uint8_t> payload, GoalsReport& out);
 
 struct DecoderStats {
   uint32_t frames_ok = 0;

@@ -146,7 +146,62 @@ bool OmniFromJson(const json& j, const std::string& file, OmniCalibration& o,
   return ok;
 }
 
+// The calibration's `field` section: rig.json's names (metres), each optional (MSL default).
+struct FieldKey {
+  const char* key;
+  float FieldConfig::*member;
+  double lo, hi;
+};
+constexpr FieldKey kFieldKeys[] = {
+    {"length", &FieldConfig::length_m, 0.5, 40},
+    {"width", &FieldConfig::width_m, 0.5, 30},
+    {"line_width", &FieldConfig::line_width_m, 0.01, 0.5},
+    {"center_circle_radius", &FieldConfig::center_circle_radius_m, 0, 15},
+    {"penalty_area_depth", &FieldConfig::penalty_area_depth_m, 0.01, 20},
+    {"penalty_area_width", &FieldConfig::penalty_area_width_m, 0.01, 30},
+    {"goal_area_depth", &FieldConfig::goal_area_depth_m, 0.01, 20},
+    {"goal_area_width", &FieldConfig::goal_area_width_m, 0.01, 30},
+    {"penalty_mark_distance", &FieldConfig::penalty_mark_distance_m, 0, 20},
+    {"corner_arc_radius", &FieldConfig::corner_arc_radius_m, 0, 15},
+    {"goal_width", &FieldConfig::goal_width_m, 0.1, 30},
+    {"goal_height", &FieldConfig::goal_height_m, 0.1, 3},
+    {"goal_depth", &FieldConfig::goal_depth_m, 0.05, 3},
+    {"border", &FieldConfig::border_m, 0, 5},
+    {"margin", &FieldConfig::margin_m, 0, 2},
+};
+
+bool FieldFromJson(const json& j, const std::string& file, FieldConfig& f,
+                   std::vector<std::string>* unknown, std::string& error) {
+  f = FieldConfig{};
+  StrictObject r(j, file, "field");
+  bool ok = r.IsObject();
+  for (const FieldKey& k : kFieldKeys) {
+    ok = ok && r.Float(k.key, f.*k.member, k.lo, k.hi, /*required=*/false);
+  }
+  if (!ok) {
+    error = r.error();
+    return false;
+  }
+  // Cross-field checks (areas inside the field, ...): the device's own, named by its field.
+  if (const Status s = ValidateFieldConfig(f); !s.ok()) {
+    std::string msg = s.message();  // "field.goal_width_m: ..." -> the JSON key "field.goal_width"
+    if (const size_t at = msg.find("_m:"); at != std::string::npos) msg.erase(at, 2);
+    error = (file.empty() ? "" : file + ": ") + msg;
+    return false;
+  }
+  if (unknown) {
+    for (auto& k : r.UnknownKeys()) unknown->push_back(k);
+  }
+  return true;
+}
+
 }  // namespace
+
+json FieldToJson(const FieldConfig& f) {
+  json j;
+  for (const FieldKey& k : kFieldKeys) j[k.key] = f.*k.member;
+  return j;
+}
 
 json PerspToJson(const PerspCalibration& p) {
   json j;
@@ -200,6 +255,7 @@ json CalibrationToJson(const RigCalibration& cal) {
   j["ball_radius_m"] = cal.ball_radius_m;
   j["persp"] = PerspToJson(cal.persp);
   j["omni"] = OmniToJson(cal.omni);
+  j["field"] = FieldToJson(cal.field);
   return j;
 }
 
@@ -221,7 +277,7 @@ bool CalibrationFromJson(const json& j, RigCalibration& out, std::string& error,
   std::string format;
   int64_t version = 0;
   bool ok = r.IsObject() && r.String("format", format, {"ballvision-calibration"}) &&
-            r.Int("version", version, kCalibrationBlobVersion, kCalibrationBlobVersion) &&
+            r.Int("version", version, 1, kCalibrationBlobVersion) &&
             r.U32("calibration_id", cal.calibration_id, /*required=*/false) &&
             r.U32("lut_id", cal.lut_id) && r.Float("ball_radius_m", cal.ball_radius_m, 0.01, 1.0);
   if (!ok) {
@@ -231,8 +287,10 @@ bool CalibrationFromJson(const json& j, RigCalibration& out, std::string& error,
   std::vector<std::string> unknown_here;
   const json* persp = r.Child("persp", /*required=*/false);
   const json* omni = r.Child("omni", /*required=*/false);
+  const json* field = r.Child("field", /*required=*/false);  // none: the MSL field
   if ((persp && !PerspFromJson(*persp, file, cal.persp, &unknown_here, error)) ||
-      (omni && !OmniFromJson(*omni, file, cal.omni, &unknown_here, error))) {
+      (omni && !OmniFromJson(*omni, file, cal.omni, &unknown_here, error)) ||
+      (field && !FieldFromJson(*field, file, cal.field, &unknown_here, error))) {
     return false;
   }
   // Same checks as the device (cross-field: rotation, increasing edges and support vectors).

@@ -34,6 +34,7 @@ bool CalibrationFromJson(const nlohmann::json& j, bv::RigCalibration& out, std::
                          const std::string& file = "", std::vector<std::string>* unknown = nullptr);
 nlohmann::json PerspToJson(const bv::PerspCalibration& p);
 nlohmann::json OmniToJson(const bv::OmniCalibration& o);
+nlohmann::json FieldToJson(const bv::FieldConfig& f);
 
 /// Serialises to a device blob (validated).
 bool CalibrationToBlob(const bv::RigCalibration& cal, std::vector<uint8_t>& blob,

@@ -59,6 +59,11 @@ void Show(const RigCalibration& c) {
   } else {
     std::printf("omni: not calibrated\n");
   }
+  const FieldConfig& f = c.field;
+  std::printf(
+      "field: %.3f x %.3f m, lines %.3f m, goals %.3f wide %.3f high %.3f deep, border %.3f m\n",
+      f.length_m, f.width_m, f.line_width_m, f.goal_width_m, f.goal_height_m, f.goal_depth_m,
+      f.border_m);
 }
 
 int ShowFile(int argc, char** argv) {

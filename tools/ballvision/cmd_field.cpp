@@ -2,6 +2,7 @@
 // robot's field pose, the ball's image centroids) and, when given, the other robots' positions:
 // pose error and time to converge, line-point distance to the true lines, obstacle recall and
 // centre error within 5 m, ball recall and false balls per camera, 3D error.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -25,6 +26,8 @@ namespace {
 constexpr double kPi = 3.14159265358979;
 constexpr double kObstacleRangeM = 5.0;
 constexpr double kObstacleHitM = 0.3;
+constexpr double kGoalRangeM = 5.0;  // goal mouths this near (centre) count as in view
+constexpr double kGoalHitM = 0.75;   // a goal found within this of the true mouth segment
 
 struct FieldArgs {
   std::string seq, calib, lut, robots;
@@ -128,6 +131,10 @@ struct Figures {
   double max_feature_lookups = 0, sum_feature_lookups = 0;
   int line_points_max = 0;
   double sum_line_points = 0;
+  int goals_in_view = 0, goals_found = 0, goals_reported = 0, goals_false = 0;
+  int goals_false_unnamed = 0;  // false ones the pose did not check (no usable pose yet)
+  int goals_named = 0, goals_named_right = 0;
+  std::vector<double> goal_err, goal_bearing_deg, goal_dist_err;
 };
 
 void ScorePose(const PoseEstimate& p, const TruthRow& t, double t_s, Figures& f) {
@@ -186,6 +193,69 @@ void ScoreObstacles(const FieldFeatures& ff, const std::vector<RobotTruth>& robo
     bool near = false;
     for (const auto& r : robots) near |= std::hypot(o.x_m - r.x, o.y_m - r.y) <= 2 * kObstacleHitM;
     f.obstacles_false += !near;
+  }
+}
+
+// Distance from (x, y) to the segment a-b, and the parameter of the nearest point.
+double SegmentDistance(double x, double y, double ax, double ay, double bx, double by) {
+  const double dx = bx - ax, dy = by - ay, len2 = dx * dx + dy * dy;
+  const double t = len2 > 0 ? std::clamp(((x - ax) * dx + (y - ay) * dy) / len2, 0.0, 1.0) : 0.0;
+  return std::hypot(x - ax - t * dx, y - ay - t * dy);
+}
+
+// Goal truth: the mouth (goal line between the posts) of each goal from the field geometry of
+// the calibration and the true robot pose, in the robot frame.
+void ScoreGoals(const FieldFeatures& ff, const FieldConfig& field, const TruthRow& t, Figures& f) {
+  if (!t.has_pose) return;
+  const double th = t.rh_deg * kPi / 180.0, s = std::sin(th), c = std::cos(th);
+  const auto to_robot = [&](double fx, double fy, double& x, double& y) {
+    const double dx = fx - t.rx, dy = fy - t.ry;
+    x = dx * s - dy * c;
+    y = dx * c + dy * s;
+  };
+  double mouth[2][4];  // per goal (-X, +X): post a, post b (robot frame)
+  for (int g = 0; g < 2; ++g) {
+    const double gx = (g == 0 ? -0.5 : 0.5) * field.length_m, hw = 0.5 * field.goal_width_m;
+    to_robot(gx, -hw, mouth[g][0], mouth[g][1]);
+    to_robot(gx, hw, mouth[g][2], mouth[g][3]);
+    const double cx = 0.5 * (mouth[g][0] + mouth[g][2]), cy = 0.5 * (mouth[g][1] + mouth[g][3]);
+    if (std::hypot(cx, cy) > kGoalRangeM) continue;
+    ++f.goals_in_view;
+    double best = 1e9;
+    int best_i = -1;
+    for (int i = 0; i < ff.goal_count; ++i) {
+      const double d = SegmentDistance(ff.goals[i].x_m, ff.goals[i].y_m, mouth[g][0], mouth[g][1],
+                                       mouth[g][2], mouth[g][3]);
+      if (d < best) {
+        best = d;
+        best_i = i;
+      }
+    }
+    if (best <= kGoalHitM) {
+      ++f.goals_found;
+      f.goal_err.push_back(best);
+      const Goal& d = ff.goals[best_i];
+      // Bearing of the true mouth centre against the middle of the seen range, and the distance.
+      f.goal_bearing_deg.push_back(std::fabs(AngleDiff(d.bearing_rad, std::atan2(cy, cx))) * 180.0 /
+                                   kPi);
+      f.goal_dist_err.push_back(std::fabs(d.distance_m - std::hypot(cx, cy)));
+      if (d.which != 0) {
+        ++f.goals_named;
+        const int truth_which = g == 0 ? -1 : 1;
+        f.goals_named_right +=
+            d.which == truth_which || (d.which_ambiguous && d.which == -truth_which);
+      }
+    }
+  }
+  for (int i = 0; i < ff.goal_count; ++i) {
+    ++f.goals_reported;
+    bool near = false;
+    for (int g = 0; g < 2; ++g) {
+      near |= SegmentDistance(ff.goals[i].x_m, ff.goals[i].y_m, mouth[g][0], mouth[g][1],
+                              mouth[g][2], mouth[g][3]) <= kGoalHitM;
+    }
+    f.goals_false += !near;
+    f.goals_false_unnamed += !near && ff.goals[i].which == 0;
   }
 }
 
@@ -250,6 +320,20 @@ void PrintFigures(const Figures& f, bool have_robots) {
     std::printf("obstacles within 5 m      %d reported, %d false (%.1f %%)\n", f.obstacles,
                 f.obstacles_false, pct(f.obstacles_false, f.obstacles));
   }
+  std::printf(
+      "goals within %.0f m         found %d of %d (%.1f %%) within %.2f m of the mouth; %d "
+      "reported, "
+      "%d false (%d before the pose could check them)",
+      kGoalRangeM, f.goals_found, f.goals_in_view, pct(f.goals_found, f.goals_in_view), kGoalHitM,
+      f.goals_reported, f.goals_false, f.goals_false_unnamed);
+  if (!f.goal_err.empty()) {
+    std::printf(
+        "; off the mouth median %.3f m, bearing of the mouth centre median %.1f deg, distance "
+        "median %.3f m",
+        Median(f.goal_err), Median(f.goal_bearing_deg), Median(f.goal_dist_err));
+  }
+  std::printf("; named by the pose %d (right up to the symmetry %d)\n", f.goals_named,
+              f.goals_named_right);
   const char* cams[2] = {"omni", "persp"};
   for (int c = 0; c < 2; ++c) {
     std::printf("ball %-5s                found %d of %d visible (%.1f %%), false %d", cams[c],
@@ -323,6 +407,7 @@ int CmdEvalField(int argc, char** argv) {
     ScorePose(p.localisation(), it->second, t_s, fig);
     ScoreLines(ff, p.field_model(), it->second, fig);
     if (!a.robots.empty()) ScoreObstacles(ff, robots[rec.index], fig);
+    ScoreGoals(ff, p.field_model().config(), it->second, fig);
     ScoreBall(rec.state, it->second, fig);
     if (a.per_frame && it->second.vis[1] && !rec.state.persp.found) {
       std::printf(
@@ -335,10 +420,17 @@ int CmdEvalField(int argc, char** argv) {
       const PoseEstimate& e = p.localisation();
       std::printf(
           "frame %lld t %.3f pose state %d (%.2f, %.2f, %.1f deg) sigma %.2f q %.2f "
-          "amb %d lines %d obstacles %d | truth (%.2f, %.2f, %.1f)\n",
+          "amb %d lines %d obstacles %d goals %d | truth (%.2f, %.2f, %.1f)\n",
           static_cast<long long>(rec.index), t_s, e.state, e.x_m, e.y_m, e.heading_rad * 180 / kPi,
-          e.sigma_x_m, e.quality, e.ambiguous, ff.line_count, ff.obstacle_count, it->second.rx,
-          it->second.ry, it->second.rh_deg);
+          e.sigma_x_m, e.quality, e.ambiguous, ff.line_count, ff.obstacle_count, ff.goal_count,
+          it->second.rx, it->second.ry, it->second.rh_deg);
+      for (int i = 0; i < ff.goal_count; ++i) {
+        const Goal& g = ff.goals[i];
+        std::printf(
+            "  goal (%.2f, %.2f) d %.2f bearing %.1f +- %.1f deg rays %d posts %d which %d\n",
+            g.x_m, g.y_m, g.distance_m, g.bearing_rad * 180 / kPi, g.half_width_rad * 180 / kPi,
+            g.rays, g.post_rays, g.which);
+      }
     }
   };
   std::vector<FrameRecord> recs;

@@ -30,13 +30,13 @@ namespace {
 constexpr char kListenUsage[] =
     "usage: ballvision listen SOURCE [--csv STATES.csv] [--status-csv STATUS.csv]\n"
     "                         [--pose-csv POSE.csv] [--lines-csv LINES.csv]\n"
-    "                         [--obstacles-csv OBSTACLES.csv]\n"
+    "                         [--obstacles-csv OBSTACLES.csv] [--goals-csv GOALS.csv]\n"
     "                         [--baud N] [--seconds S] [--quiet]\n"
     "  SOURCE: a serial device or pty (/dev/ttyUSB0), a file of captured bytes, '-'\n"
     "          for stdin, or tcp:HOST:PORT (e.g. QEMU -chardev socket)\n"
     "  Prints a live table (unless --quiet) and a summary; exit 1 if nothing valid\n"
-    "  was received. --lines-csv / --obstacles-csv: one row per point / obstacle\n"
-    "  (robot frame, m), with the packet's seq, t_us and found count.\n";
+    "  was received. --lines-csv / --obstacles-csv / --goals-csv: one row per point /\n"
+    "  obstacle / goal (robot frame, m, rad), with the packet's seq, t_us and found count.\n";
 
 speed_t BaudFlag(long baud) {
   switch (baud) {
@@ -134,14 +134,15 @@ bool FinishListenOutputs(SafeOutput& csv, SafeOutput& status_csv) {
   return ok;
 }
 
-// Pose, line-point and obstacle packets: counted, optionally written as CSV, shown every 10th.
+// Pose, line-point, obstacle and goal packets: counted, optionally written as CSV, shown every
+// 10th.
 struct FieldStreams {
-  SafeOutput pose, lines, obstacles;
-  uint32_t poses = 0, line_packets = 0, obstacle_packets = 0;
+  SafeOutput pose, lines, obstacles, goals;
+  uint32_t poses = 0, line_packets = 0, obstacle_packets = 0, goal_packets = 0;
   bool quiet = false;
 
   bool Open(const std::string& pose_path, const std::string& lines_path,
-            const std::string& obstacles_path, std::string& err) {
+            const std::string& obstacles_path, const std::string& goals_path, std::string& err) {
     if (!pose_path.empty()) {
       if (!pose.Open(pose_path, err)) return false;
       pose << "seq,t_us,state,x,y,heading,sigma_x,sigma_y,sigma_heading,quality,ambiguous,"
@@ -155,13 +156,17 @@ struct FieldStreams {
       if (!obstacles.Open(obstacles_path, err)) return false;
       obstacles << "seq,t_us,found,index,x,y,radius\n";
     }
+    if (!goals_path.empty()) {
+      if (!goals.Open(goals_path, err)) return false;
+      goals << "seq,t_us,found,index,x,y,bearing,half_width,rays,post_rays,which,which_ambiguous\n";
+    }
     return true;
   }
 
   // Commits every open file (safe_write: temporary, fsync, rename); false on the first error.
   bool Commit() {
     bool ok = true;
-    for (SafeOutput* out : {&pose, &lines, &obstacles}) {
+    for (SafeOutput* out : {&pose, &lines, &obstacles, &goals}) {
       std::string e;
       if (out->is_open() && !out->Commit(e)) {
         std::fprintf(stderr, "ballvision listen: %s\n", e.c_str());
@@ -228,12 +233,35 @@ struct FieldStreams {
     }
     return true;
   }
+
+  bool Goals(const protocol::FrameView& f) {
+    protocol::GoalsReport r;
+    if (!protocol::ParseGoals(f.payload, r).ok()) return false;
+    ++goal_packets;
+    for (int i = 0; goals.is_open() && i < r.count; ++i) {
+      const protocol::GoalMm& g = r.goals[i];
+      goals << f.seq << ',' << r.t_us << ',' << int(r.found) << ',' << i << ',' << g.x_mm * 1e-3
+            << ',' << g.y_mm * 1e-3 << ',' << g.bearing_mrad * 1e-3 << ','
+            << g.half_width_mrad * 1e-3 << ',' << int(g.rays) << ',' << int(g.post_rays) << ','
+            << int(g.which) << ',' << int(g.which_ambiguous) << '\n';
+    }
+    if (!quiet && r.count > 0 && goal_packets % 10 == 1) {
+      std::printf("goals seq %6u t %10.3f s  %u goals", f.seq, r.t_us * 1e-6, r.count);
+      for (int i = 0; i < r.count; ++i) {
+        std::printf("  (%.2f, %.2f which %d)", r.goals[i].x_mm * 1e-3, r.goals[i].y_mm * 1e-3,
+                    r.goals[i].which);
+      }
+      std::printf("\n");
+    }
+    return true;
+  }
 };
 
 }  // namespace
 
 int CmdListen(int argc, char** argv) {
-  std::string source, csv_path, status_path, pose_path, lines_path, obstacles_path;
+  std::string source, csv_path, status_path, pose_path, lines_path, obstacles_path,
+      goals_path;
   long baud = 921600;
   double seconds = 0;
   bool quiet = false;
@@ -244,6 +272,7 @@ int CmdListen(int argc, char** argv) {
       .Text("--pose-csv", pose_path)
       .Text("--lines-csv", lines_path)
       .Text("--obstacles-csv", obstacles_path)
+      .Text("--goals-csv", goals_path)
       .Custom("--baud",
               [&baud](const std::string& v, std::string& error) {
                 if (!ArgIntAs("--baud", v, 1, 4000000, baud, error)) return false;
@@ -278,7 +307,7 @@ int CmdListen(int argc, char** argv) {
   }
   FieldStreams field;
   field.quiet = quiet;
-  if (!field.Open(pose_path, lines_path, obstacles_path, err)) {
+  if (!field.Open(pose_path, lines_path, obstacles_path, goals_path, err)) {
     std::fprintf(stderr, "ballvision listen: %s\n", err.c_str());
     return 1;
   }
@@ -291,8 +320,8 @@ int CmdListen(int argc, char** argv) {
   uint8_t buf[4096];
   for (;;) {
     if (InterruptSignal()) break;
-    if (seconds > 0 && std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
-                               .count() > seconds) {
+    if (seconds > 0 &&
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() > seconds) {
       break;
     }
     const ssize_t n = read(fd, buf, sizeof buf);
@@ -362,6 +391,8 @@ int CmdListen(int argc, char** argv) {
         if (!field.Lines(frame)) ++bad_payloads;
       } else if (frame.type == protocol::MsgType::kObstacles) {
         if (!field.Obstacles(frame)) ++bad_payloads;
+      } else if (frame.type == protocol::MsgType::kGoals) {
+        if (!field.Goals(frame)) ++bad_payloads;
       } else {
         ++others;
       }
@@ -375,10 +406,10 @@ int CmdListen(int argc, char** argv) {
   std::printf(
       "summary: ball_states=%u status=%u other=%u bad_payloads=%u seq_gaps=%u "
       "decoder_errors=%u (crc %u, cobs %u, oversize %u, short %u, version %u, length %u) "
-      "pose=%u lines=%u obstacles=%u\n",
+      "pose=%u lines=%u obstacles=%u goals=%u\n",
       balls, statuses, others, bad_payloads, seq_gaps, ds.errors(), ds.crc_errors, ds.cobs_errors,
       ds.oversize, ds.short_frames, ds.version_errors, ds.length_errors, field.poses,
-      field.line_packets, field.obstacle_packets);
+      field.line_packets, field.obstacle_packets, field.goal_packets);
   if (InterruptSignal()) return InterruptExitCode();
   return written && (balls + statuses) > 0 ? 0 : 1;
 }

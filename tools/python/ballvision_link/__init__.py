@@ -6,11 +6,12 @@ CRC-32 (zlib.crc32). Only the standard library is needed to decode; pyserial to 
 """
 from .clock_sync import ClockSync
 from .protocol import (BallState, CaptureChunk, CaptureEnd, CaptureFrame, ClockSyncReply,
-                       Decoder, LinePoints, Obstacles, Pose, StatusReport,
-                       MSG_BALL_STATE, MSG_LINE_POINTS, MSG_OBSTACLES, MSG_POSE, MSG_STATUS,
-                       cobs_decode, cobs_encode, SCHEMA_HASH)
+                       Decoder, Goals, LinePoints, Obstacles, Pose, StatusReport,
+                       MSG_BALL_STATE, MSG_GOALS, MSG_LINE_POINTS, MSG_OBSTACLES, MSG_POSE,
+                       MSG_STATUS, cobs_decode, cobs_encode, SCHEMA_HASH)
 
 __all__ = ["BallState", "CaptureChunk", "CaptureEnd", "CaptureFrame", "ClockSync",
-           "ClockSyncReply", "Decoder", "LinePoints", "Obstacles", "Pose", "StatusReport",
-           "MSG_BALL_STATE", "MSG_LINE_POINTS", "MSG_OBSTACLES", "MSG_POSE", "MSG_STATUS",
+           "ClockSyncReply", "Decoder", "Goals", "LinePoints", "Obstacles", "Pose",
+           "StatusReport", "MSG_BALL_STATE", "MSG_GOALS", "MSG_LINE_POINTS", "MSG_OBSTACLES",
+           "MSG_POSE", "MSG_STATUS",
            "cobs_decode", "cobs_encode", "SCHEMA_HASH"]

@@ -1,5 +1,6 @@
 """python3 -m ballvision_link SOURCE [--csv OUT] [--status-csv OUT] [--pose-csv OUT]
-                               [--lines-csv OUT] [--obstacles-csv OUT] [--plot] [--baud N]
+                               [--lines-csv OUT] [--obstacles-csv OUT] [--goals-csv OUT]
+                               [--plot] [--baud N]
                                [--seconds S]
 
 SOURCE: a serial port (needs pyserial), a file of captured bytes, '-' for stdin, or
@@ -14,7 +15,7 @@ import socket
 import sys
 import time
 
-from .protocol import (BallState, Decoder, LinePoints, Obstacles, Pose, POSE_STATES,
+from .protocol import (BallState, Decoder, Goals, LinePoints, Obstacles, Pose, POSE_STATES,
                        StatusReport, FLAG_HAS_BOUNCE, FLAG_HAS_PREDICTION)
 from .safe_write import SafeOutput
 
@@ -92,7 +93,14 @@ POSE_COLUMNS = ["seq", "t_us", "state", "x", "y", "heading", "sigma_x", "sigma_y
                 "inliers"]
 FIELD_HEADERS = {Pose: ",".join(POSE_COLUMNS),
                  LinePoints: "seq,t_us,found,index,x,y",
-                 Obstacles: "seq,t_us,found,index,x,y,radius"}
+                 Obstacles: "seq,t_us,found,index,x,y,radius",
+                 Goals: "seq,t_us,found,index,x,y,bearing,half_width,rays,post_rays,which,"
+                        "which_ambiguous"}
+
+
+def _csv_value(v) -> str:
+    """As `ballvision listen` writes it (C++ stream: 6 significant digits, -1 not -1.0)."""
+    return format(v, "g") if isinstance(v, float) else str(v)
 
 
 def _field_rows(msg):
@@ -103,6 +111,8 @@ def _field_rows(msg):
         return [row]
     if isinstance(msg, LinePoints):
         return [[msg.seq, msg.t_us, msg.found, i, x, y] for i, (x, y) in enumerate(msg.points)]
+    if isinstance(msg, Goals):
+        return [[msg.seq, msg.t_us, msg.found, i, *g[:7], int(g[7])] for i, g in enumerate(msg.goals)]
     return [[msg.seq, msg.t_us, msg.found, i, x, y, r] for i, (x, y, r) in enumerate(msg.obstacles)]
 
 
@@ -143,9 +153,10 @@ class _Listener:
         self.balls = self.statuses = self.others = 0
         self.states = SafeOutput(a.csv) if a.csv else None
         self.status = SafeOutput(a.status_csv) if a.status_csv else None
-        paths = {Pose: a.pose_csv, LinePoints: a.lines_csv, Obstacles: a.obstacles_csv}
+        paths = {Pose: a.pose_csv, LinePoints: a.lines_csv, Obstacles: a.obstacles_csv,
+                 Goals: a.goals_csv}
         self.field = {t: SafeOutput(p) if p else None for t, p in paths.items()}
-        self.field_counts = {Pose: 0, LinePoints: 0, Obstacles: 0}
+        self.field_counts = {Pose: 0, LinePoints: 0, Obstacles: 0, Goals: 0}
         for t, out in self.field.items():
             if out:
                 out.write(FIELD_HEADERS[t] + "\n")
@@ -167,7 +178,7 @@ class _Listener:
             out = self.field[type(msg)]
             if out:
                 for row in _field_rows(msg):
-                    out.write(",".join(str(v) for v in row) + "\n")
+                    out.write(",".join(_csv_value(v) for v in row) + "\n")
         elif isinstance(msg, StatusReport):
             self.statuses += 1
             if self.status:
@@ -195,7 +206,8 @@ class _Listener:
         print(f"summary: ball_states={self.balls} status={self.statuses} other={self.others} "
               f"decoder_errors={sum(d.errors.values())} {d.errors} "
               f"bytes_discarded={d.bytes_discarded} pose={self.field_counts[Pose]} "
-              f"lines={self.field_counts[LinePoints]} obstacles={self.field_counts[Obstacles]}")
+              f"lines={self.field_counts[LinePoints]} obstacles={self.field_counts[Obstacles]} "
+              f"goals={self.field_counts[Goals]}")
         return ok
 
 
@@ -230,6 +242,7 @@ def main(argv=None) -> int:
     ap.add_argument("--pose-csv", help="write pose packets here")
     ap.add_argument("--lines-csv", help="write line points here (one row per point)")
     ap.add_argument("--obstacles-csv", help="write obstacles here (one row per obstacle)")
+    ap.add_argument("--goals-csv", help="write goals here (one row per goal)")
     ap.add_argument("--plot", action="store_true", help="live matplotlib plot of x, y, z")
     ap.add_argument("--quiet", action="store_true", help="no per-status lines")
     ap.add_argument("--baud", type=_baud, default=921600)

@@ -11,6 +11,7 @@ MSG_STATUS = 0x02
 MSG_POSE = 0x03
 MSG_LINE_POINTS = 0x04
 MSG_OBSTACLES = 0x05
+MSG_GOALS = 0x06
 MSG_CLOCK_SYNC_REPLY = 0x0A
 MSG_CAPTURE_FRAME, MSG_CAPTURE_CHUNK, MSG_CAPTURE_END = 0x0B, 0x0C, 0x0D
 HEADER = struct.Struct("<BBHIH")
@@ -36,6 +37,8 @@ _SCHEMA = (
     "sigma_x sigma_y sigma_heading f32,quality f32;"
     "lines:t_us u64,found u16,count u8,reserved u8,count*(x_mm y_mm i16);"
     "obstacles:t_us u64,found count u8,count*(x_mm y_mm i16,radius_mm u16);"
+    "goals:t_us u64,found count u8,count*(x_mm y_mm bearing_mrad i16,half_width_mrad u16,"
+    "rays post_rays u8,which i8,flags u8);"
     "sync:id u32,t1_host_us t2_rx_us t3_tx_us u64;"
     "capture_frame:capture_id pair_index count u16,mode cameras u8,width height u16,"
     "exposure_us omni_exposure_us persp_exposure_us u64,omni_sequence persp_sequence u32,"
@@ -63,7 +66,9 @@ assert _CAPTURE_END.size == 7
 CAPTURE_MODES = {0: (640, 480), 1: (320, 240), 2: (160, 120)}  # full, half, quarter
 CAPTURE_MAX_PAIRS, CAPTURE_CHUNK_BYTES, FRAME_BYTES = 100, 512, 640 * 480 * 2
 CAPTURE_END_REASONS = ("complete", "stopped", "camera finished")
-MAX_LINE_POINTS, MAX_OBSTACLES = 64, 16
+MAX_LINE_POINTS, MAX_OBSTACLES, MAX_GOALS = 64, 16, 2
+_GOAL = struct.Struct("<hhhHBBbB")
+assert _GOAL.size == 12
 POSE_STATES = ("unknown", "searching", "tracking", "coasting")
 POSE_AMBIGUOUS, POSE_HINT_REJECTED, POSE_USABLE = 1, 2, 4
 
@@ -213,6 +218,17 @@ class CaptureEnd:
     reason: str
 
 
+@dataclass
+class Goals:
+    """Goal mouths seen: (x, y, bearing, half_width, rays, post_rays, which, which_ambiguous);
+    x, y m (centre of the seen mouth, robot frame), bearing +- half_width rad (robot frame, CCW
+    from +x), which +1 / -1 (the goal at field +X / -X, from the pose) or 0 (unknown)."""
+    seq: int
+    t_us: int
+    found: int
+    goals: List[Tuple[float, float, float, float, int, int, int, bool]]
+
+
 def cobs_encode(data: bytes) -> bytes:
     out = bytearray([0])
     code_pos, code = 0, 1
@@ -357,6 +373,23 @@ def parse_capture_end(seq: int, payload: bytes) -> Optional[CaptureEnd]:
     return CaptureEnd(seq, cid, requested, sent, CAPTURE_END_REASONS[reason])
 
 
+def parse_goals(seq: int, payload: bytes) -> Optional[Goals]:
+    if len(payload) < _OBSTACLES_HEAD.size:  # the same 10-byte head
+        return None
+    t_us, found, count = _OBSTACLES_HEAD.unpack_from(payload)
+    if count > MAX_GOALS or count > found or len(payload) != _OBSTACLES_HEAD.size + _GOAL.size * count:
+        return None
+    goals = []
+    for i in range(count):
+        x, y, b, hw, rays, posts, which, flags = _GOAL.unpack_from(
+            payload, _OBSTACLES_HEAD.size + _GOAL.size * i)
+        if abs(b) > 3142 or hw > 3142 or posts > rays or which not in (-1, 0, 1) or flags & ~1:
+            return None
+        goals.append((x / 1000.0, y / 1000.0, b / 1000.0, hw / 1000.0, rays, posts, which,
+                      bool(flags & 1)))
+    return Goals(seq, t_us, found, goals)
+
+
 _PARSERS = {MSG_BALL_STATE: parse_ball_state,
             MSG_STATUS: parse_status,
             MSG_POSE: parse_pose,
@@ -365,7 +398,8 @@ _PARSERS = {MSG_BALL_STATE: parse_ball_state,
             MSG_CLOCK_SYNC_REPLY: parse_clock_sync_reply,
             MSG_CAPTURE_FRAME: parse_capture_frame,
             MSG_CAPTURE_CHUNK: parse_capture_chunk,
-            MSG_CAPTURE_END: parse_capture_end}
+            MSG_CAPTURE_END: parse_capture_end,
+            MSG_GOALS: parse_goals}
 
 
 class Decoder:

@@ -7,10 +7,10 @@ import unittest
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 import struct  # noqa: E402
-from ballvision_link import (BallState, Decoder, LinePoints, Obstacles, Pose,  # noqa: E402
+from ballvision_link import (BallState, Decoder, Goals, LinePoints, Obstacles, Pose,  # noqa: E402
                              StatusReport, cobs_decode, cobs_encode)
 from ballvision_link.protocol import (encode_frame, MSG_BALL_STATE, MSG_LINE_POINTS,  # noqa
-                                      MSG_OBSTACLES, MSG_POSE)
+                                      MSG_GOALS, MSG_OBSTACLES, MSG_POSE)
 
 FIXTURE = os.path.join(os.path.dirname(__file__), "..", "..", "..", "host_tests", "data",
                        "protocol_golden.bin")
@@ -20,7 +20,7 @@ class ProtocolTest(unittest.TestCase):
     def test_decodes_cpp_stream(self):
         data = open(FIXTURE, "rb").read()
         msgs = list(Decoder().feed(data))
-        self.assertEqual(len(msgs), 5)
+        self.assertEqual(len(msgs), 6)
         ball, status = msgs[:2]
         self.assertIsInstance(ball, BallState)
         self.assertEqual(ball.seq, 41)
@@ -39,7 +39,7 @@ class ProtocolTest(unittest.TestCase):
 
     def test_decodes_cpp_field_packets(self):
         # protocol_test.cpp: SamplePose(), SampleFeatures(3 lines, 2 obstacles) at t = 1 s.
-        pose, obstacles, lines = list(Decoder().feed(open(FIXTURE, "rb").read()))[2:]
+        pose, obstacles, lines, goals = list(Decoder().feed(open(FIXTURE, "rb").read()))[2:]
         self.assertIsInstance(pose, Pose)
         self.assertEqual((pose.seq, pose.t_us, pose.state), (43, 1000000, "tracking"))
         self.assertEqual((pose.x, pose.y, pose.heading), (1.5, -2.25, 0.5))
@@ -54,15 +54,21 @@ class ProtocolTest(unittest.TestCase):
         self.assertIsInstance(lines, LinePoints)
         self.assertEqual((lines.seq, lines.found), (45, 3))
         self.assertEqual(lines.points, [(-1.0, 2.0), (-0.75, 1.875), (-0.5, 1.75)])
+        self.assertIsInstance(goals, Goals)
+        self.assertEqual((goals.seq, goals.found), (46, 1))
+        self.assertEqual(goals.goals, [(0.25, 4.5, 1.515, 0.25, 4, 1, 1, True)])
 
     def test_field_packets_round_trip_and_bad_payloads(self):
         dec = Decoder()
         pose = struct.pack("<QBBHH7f", 5, 3, 4, 10, 8, 1, 2, 0.5, 0.1, 0.1, 0.01, 0.5)
         lines = struct.pack("<QHBB", 6, 70, 2, 0) + struct.pack("<4h", 1000, -2000, 32767, -32768)
         obst = struct.pack("<QBB", 7, 1, 1) + struct.pack("<hhH", -1500, 500, 300)
+        goal = struct.pack("<QBB", 8, 1, 1) + struct.pack("<hhhHBBbB", 4000, -200, -50, 240, 5, 0,
+                                                          -1, 0)
         msgs = list(dec.feed(encode_frame(MSG_POSE, 1, pose) + encode_frame(MSG_LINE_POINTS, 2, lines)
-                             + encode_frame(MSG_OBSTACLES, 3, obst)))
-        self.assertEqual(len(msgs), 3)
+                             + encode_frame(MSG_OBSTACLES, 3, obst) + encode_frame(MSG_GOALS, 4, goal)))
+        self.assertEqual(len(msgs), 4)
+        self.assertEqual(msgs[3].goals, [(4.0, -0.2, -0.05, 0.24, 5, 0, -1, False)])
         self.assertEqual((msgs[0].state, msgs[0].usable, msgs[0].ambiguous), ("coasting", True,
                                                                                False))
         self.assertEqual(msgs[1].points, [(1.0, -2.0), (32.767, -32.768)])
@@ -79,6 +85,12 @@ class ProtocolTest(unittest.TestCase):
             (MSG_LINE_POINTS, struct.pack("<QHBB", 6, 300, 65, 0) + b"\x01" * 260),  # > 64
             (MSG_OBSTACLES, obst + b"\x00"),  # oversize
             (MSG_OBSTACLES, struct.pack("<QBB", 7, 40, 17) + b"\x01" * 102),  # > 16
+            (MSG_GOALS, goal[:-1]),  # truncated
+            (MSG_GOALS, struct.pack("<QBB", 8, 3, 3) + goal[10:] * 3),  # > 2
+            (MSG_GOALS, goal[:10] + struct.pack("<hhhHBBbB", 0, 0, 3200, 0, 1, 0, 0, 0)),  # > pi
+            (MSG_GOALS, goal[:10] + struct.pack("<hhhHBBbB", 0, 0, 0, 0, 1, 2, 0, 0)),  # posts
+            (MSG_GOALS, goal[:10] + struct.pack("<hhhHBBbB", 0, 0, 0, 0, 1, 0, 2, 0)),  # which
+            (MSG_GOALS, goal[:10] + struct.pack("<hhhHBBbB", 0, 0, 0, 0, 1, 0, 0, 4)),  # flag
         ]
         before = dec.errors["payload"]
         self.assertEqual(list(dec.feed(b"".join(encode_frame(t, 9, p) for t, p in bad))), [])
