@@ -400,26 +400,33 @@ void BallFilter::StartTrack(const BallObservation& obs) {
 // from the current state and from nearer points on the newest ray (at rest); the best plausible
 // fit wins.
 BallFilter::Fit BallFilter::SolveFlight(const Segment& seg) const {
-  Fit fits[3];
-  fits[0] = Solve(seg, fit_.x, UINT64_MAX, kColdIterations);
+  // Only the best fit is kept whole (stack: this runs deep in the frame's call chain); the others'
+  // position and chi^2 tell whether the rays are ambiguous.
+  Fit best;
+  Eigen::Vector3f where[3];
+  float chi2[3];
+  bool plausible[3];
   const Stored& nw = Newest(0);
-  for (int i = 1; i < 3; ++i) {
-    Vec6 start = Vec6::Zero();
-    start.head<3>() = origin_[nw.rays[0].camera] + nw.rays[0].dir * (i == 1 ? 2.f : 5.f);
-    fits[i] = Solve(seg, start, UINT64_MAX, kColdIterations);
-  }
-  int best = 0;
-  for (int i = 1; i < 3; ++i) {
-    if (Plausible(fits[i]) && (!Plausible(fits[best]) || fits[i].chi2 < fits[best].chi2)) best = i;
+  for (int i = 0; i < 3; ++i) {
+    Vec6 start = fit_.x;
+    if (i > 0) {
+      start.setZero();
+      start.head<3>() = origin_[nw.rays[0].camera] + nw.rays[0].dir * (i == 1 ? 2.f : 5.f);
+    }
+    const Fit f = Solve(seg, start, UINT64_MAX, kColdIterations);
+    plausible[i] = Plausible(f);
+    where[i] = f.x.head<3>();
+    chi2[i] = f.chi2;
+    if (i == 0 || (plausible[i] && (!Plausible(best) || f.chi2 < best.chi2))) best = f;
   }
   // Another plausible flight nearly as good but elsewhere: the rays cannot tell them apart yet.
   for (int i = 0; i < 3; ++i) {
-    if (i != best && Plausible(fits[i]) && fits[i].chi2 < fits[best].chi2 + kAmbiguousChi2 &&
-        (fits[i].x.head<3>() - fits[best].x.head<3>()).norm() > cfg_.unobservable_sigma_m) {
-      fits[best].ambiguous = true;
+    if (plausible[i] && chi2[i] < best.chi2 + kAmbiguousChi2 &&
+        (where[i] - best.x.head<3>()).norm() > cfg_.unobservable_sigma_m) {
+      best.ambiguous = true;
     }
   }
-  return fits[best];
+  return best;
 }
 
 void BallFilter::Refit() {

@@ -66,7 +66,7 @@ struct BallObservation {
 
 class BallFilter {
  public:
-  static constexpr int kMaxWindow = 16;
+  static constexpr int kMaxWindow = 12;  // 0.4 s at 30 Hz; static RAM is the limit (DESIGN.md §5)
   static constexpr int kMaxContacts = 16;  // floor contacts followed when predicting
 
   explicit BallFilter(const BallFilterConfig& config = {}) { Configure(config); }
