@@ -10,66 +10,12 @@
 namespace bv {
 namespace {
 
-constexpr float kOmniFitSpanPx = 25.f;  // map span used to extrapolate beyond its end
-constexpr float kRimMarginPx = 3.f;     // a ball this close to the mirror rim may be cut by it
+constexpr float kRimMarginPx = 3.f;  // a ball this close to the mirror rim may be cut by it
 constexpr int kMinGoalRaysWithoutPose = 3;
 
 float AngleBetween(const Eigen::Vector3f& a, const Eigen::Vector3f& b) {
   const float c = a.normalized().dot(b.normalized());
   return std::acos(std::clamp(c, -1.f, 1.f));
-}
-
-// The omni ray of a pixel. Beyond the calibrated distance map (a raised ball far away: its ray
-// meets the floor further out than the carpet reached) the elevation angle is extrapolated
-// linearly in the image radius from the last 8 px of the map in that direction; the angle
-// (unlike the ground distance) is smooth up to and past the horizon.
-Result<Ray> OmniRay(const OmniCalibration& cal, float u_px, float v_px) {
-  auto ray = OmniPixelToRay(cal, u_px, v_px);
-  if (ray.ok() || ray.status().code() != StatusCode::kOutOfRange) return ray;
-  const float du = u_px - cal.center_u, dv = v_px - cal.center_v;
-  const float r = std::hypot(du, dv);
-  if (!(r > 20.f) || !(cal.viewpoint_z_m > 0.f)) return ray;
-  const float cu = du / r, cv = dv / r;
-  float lo = 0.f, hi = r, x, y;
-  for (int i = 0; i < 24; ++i) {
-    const float mid = 0.5f * (lo + hi);
-    if (OmniPixelToGround(cal, cal.center_u + mid * cu, cal.center_v + mid * cv, x, y).ok()) {
-      lo = mid;
-    } else {
-      hi = mid;
-    }
-  }
-  const float r1 = lo, r2 = lo - kOmniFitSpanPx;
-  float x1, y1, x2, y2;
-  if (r2 <= 0.f ||
-      !OmniPixelToGround(cal, cal.center_u + r1 * cu, cal.center_v + r1 * cv, x1, y1).ok() ||
-      !OmniPixelToGround(cal, cal.center_u + r2 * cu, cal.center_v + r2 * cv, x2, y2).ok()) {
-    return ray;
-  }
-  const float a1 = std::atan2(std::hypot(x1, y1), cal.viewpoint_z_m);
-  const float a2 = std::atan2(std::hypot(x2, y2), cal.viewpoint_z_m);
-  // Unified central-catadioptric model r = k sin(a) / (xi + cos(a)) through both points
-  // (linear in k, xi), inverted at r: r cos(a) - k sin(a) = -r xi.
-  const float s1 = std::sin(a1), s2 = std::sin(a2);
-  const float det = -s1 * r2 + s2 * r1;
-  float a = a1 + (a1 - a2) / (r1 - r2) * (r - r1);  // linear fallback
-  if (std::fabs(det) > 1e-6f) {
-    const float c1 = r1 * std::cos(a1), c2 = r2 * std::cos(a2);
-    const float k = (-c1 * r2 + c2 * r1) / det;
-    const float xi = (s1 * c2 - s2 * c1) / det;
-    const float big_r = std::hypot(r, k);
-    const float arg = -r * xi / big_r;
-    if (k > 0.f && std::fabs(arg) <= 1.f) a = std::acos(arg) - std::atan2(k, r);
-  }
-  if (!(a > 0.f) || a > 1.75f) {  // beyond ~10 degrees above the horizon: not the mirror
-    return Status(StatusCode::kOutOfRange, "omni ray: pixel far beyond the distance map");
-  }
-  const float theta = std::atan2(y1, x1);
-  Ray out;
-  out.origin = Eigen::Vector3f(0.f, 0.f, cal.viewpoint_z_m);
-  out.dir =
-      Eigen::Vector3f(std::sin(a) * std::cos(theta), std::sin(a) * std::sin(theta), -std::cos(a));
-  return out;
 }
 
 // Angular noise of an omni ray: the centroid noise (grown with the region) converted by the
@@ -85,7 +31,7 @@ void OmniRaySigma(const OmniCalibration& cal, const BallDetection& det, const Ra
   out.sigma_h_rad = std::hypot(s_az, config.omni_azimuth_sigma_rad * horiz);
   float per_px = 0.01f;  // fallback: ~0.6 deg per pixel
   for (const float step : {-1.0f, 1.0f}) {
-    auto n = OmniRay(cal, det.u_px + step * du / rho, det.v_px + step * dv / rho);
+    auto n = OmniPixelToRayExtended(cal, det.u_px + step * du / rho, det.v_px + step * dv / rho);
     if (n.ok()) {
       per_px = AngleBetween(ray.dir, n->dir);
       break;
@@ -440,7 +386,7 @@ Status Pipeline::Process(const FrameInput& in, BallState& out) {
   if (out.omni.found) out.flags |= kFlagSeenOmni;
   if (out.persp.found) out.flags |= kFlagSeenPersp;
   if (out.omni.found && !omni_cut) {
-    auto ray = OmniRay(cal.omni, out.omni.u_px, out.omni.v_px);
+    auto ray = OmniPixelToRayExtended(cal.omni, out.omni.u_px, out.omni.v_px);
     if (ray.ok()) {
       ray_o = *ray;
       have_o = true;

@@ -228,6 +228,53 @@ void CheckAgainstTruth(const std::string& calib_path) {
   EXPECT_GE(b.rms_rel / a.rms_rel, 3.0);
 }
 
+TEST(OmniReference, ExtendedRayContinuesTheMapPastTheHorizon) {
+  // The reference calibration's map ends at 6.3 m; beyond it (a raised ball far away) the ray's
+  // elevation must continue smoothly and monotonically from the map, past the horizon, up to ~10
+  // degrees above it. (The calibration does not know the mirror rim: the pipeline cuts there.)
+  RigCalibration cal;
+  std::string err;
+  ASSERT_TRUE(cli::LoadCalibrationFile(std::string(BV_TEST_DATA_DIR) + "/reference_rig_calib.json",
+                                       cal, err))
+      << err;
+  const OmniCalibration& o = cal.omni;
+  for (int d = 0; d < 8; ++d) {
+    const float phi = 0.3f + d * 0.785f;
+    float last_elev = -10.f, last_step = 0.f;
+    int inside = 0, beyond = 0;
+    bool crossed_horizon = false;
+    for (float r = 40.f; r < 260.f; r += 1.f) {
+      const float u = o.center_u + r * std::cos(phi), v = o.center_v + r * std::sin(phi);
+      const auto ray = OmniPixelToRayExtended(o, u, v);
+      if (!ray.ok()) {
+        if (inside > 0) break;
+        continue;
+      }
+      ASSERT_TRUE(std::isfinite(ray->dir.z()));
+      EXPECT_NEAR(ray->dir.norm(), 1.f, 1e-4f);
+      if (OmniPixelToRay(o, u, v).ok()) {
+        ++inside;
+        EXPECT_LT((OmniPixelToRay(o, u, v)->dir - ray->dir).norm(), 1e-6f);
+      } else {
+        ++beyond;
+      }
+      const float elev = std::asin(std::clamp(ray->dir.z(), -1.f, 1.f));
+      EXPECT_GT(elev, last_elev) << "direction " << d << " r " << r;  // monotonic
+      const float step = elev - last_elev;
+      if (beyond > 1) {
+        EXPECT_LT(step, 3.f * last_step + 0.002f) << "no jump at the map's end";
+      }
+      last_step = step;
+      last_elev = elev;
+      crossed_horizon |= ray->dir.z() > 0.f;
+      EXPECT_LT(elev, 0.185f) << "more than ~10 degrees above the horizon is not the mirror";
+    }
+    EXPECT_GT(inside, 50) << d;
+    EXPECT_GT(beyond, 3) << d;
+    EXPECT_TRUE(crossed_horizon) << d;
+  }
+}
+
 TEST(OmniReference, CommittedReferenceCalibrationMatchesTruth) {
   CheckAgainstTruth(std::string(BV_TEST_DATA_DIR) + "/reference_rig_calib.json");
 }

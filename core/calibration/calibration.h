@@ -79,6 +79,11 @@ Status OmniGroundToPixel(const OmniCalibration& cal, float x_m, float y_m, float
                          float& v_px);
 /// Viewing ray from the mirror viewpoint (0, 0, f_O) through the ground point of the pixel.
 Result<Ray> OmniPixelToRay(const OmniCalibration& cal, float u_px, float v_px);
+/// The viewing ray of any pixel the mirror maps: OmniPixelToRay within the distance map; beyond it
+/// (a raised ball far away, up to ~10 degrees above the horizon) the elevation continued by a
+/// central-catadioptric fit r = k sin(a) / (xi + cos(a)) through the map's last 25 px in that
+/// direction. kOutOfRange further out.
+Result<Ray> OmniPixelToRayExtended(const OmniCalibration& cal, float u_px, float v_px);
 /// Robot-frame 3D point -> image point: the ground point where the viewpoint ray through the
 /// point meets the floor, projected. kOutOfRange if the point is at or above the viewpoint.
 Status OmniProject(const OmniCalibration& cal, const Eigen::Vector3f& p_robot, float& u_px,
