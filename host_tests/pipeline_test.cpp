@@ -376,6 +376,9 @@ TEST(PipelineCli, RunWritesTheDesignColumns) {
                                          "px",
                                          "py",
                                          "pz",
+                                         "sigma_x",
+                                         "sigma_y",
+                                         "sigma_z",
                                          "pose_x",
                                          "pose_y",
                                          "pose_heading_deg"};

@@ -24,8 +24,8 @@ enum BallFlags : uint16_t {
   kFlagSeenOmni = 1u << 0,
   kFlagSeenPersp = 1u << 1,
   kFlagTriangulated = 1u << 2,        // both rays used
-  kFlagOmniGroundFallback = 1u << 3,  // omni only: ball assumed on the floor
-  kFlagPerspSizeFallback = 1u << 4,   // persp only: distance from apparent size
+  kFlagOmniGroundFallback = 1u << 3,  // only the omni ray went to the filter (name kept)
+  kFlagPerspSizeFallback = 1u << 4,   // only the persp ray (+ its size) went to the filter
   kFlagCoasting = 1u << 5,            // no measurement: prediction only
   kFlagLost = 1u << 6,                // coasted too long; position invalid
   kFlagRaysParallel = 1u << 7,        // rays nearly parallel, triangulation refused

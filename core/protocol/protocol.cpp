@@ -13,7 +13,7 @@ namespace {
 constexpr char kSchema[] =
     "ball:t_us u64,flags u16,mode u8,found u8,x y z f32,vx vy vz f32,ray_gap f32,"
     "omni_u omni_v f32,persp_u persp_v f32,t_bounce_us u64,bounce_x bounce_y f32,"
-    "predict_ahead_us u32,px py pz f32,proc_us u32;"
+    "predict_ahead_us u32,px py pz f32,proc_us u32,sigma_x sigma_y sigma_z u16;"
     "status:uptime_us u64,frames_processed frame_rate_mhz frames_dropped deadline_overruns "
     "packets_dropped pairs_omni_missing pairs_persp_missing pairs_out_of_sync pairs_out_of_order "
     "pairs_torn calibration_id lut_id u32,calibration_state lut_state u8,reserved u16,"
@@ -119,6 +119,12 @@ Result<size_t> EncodeFrame(MsgType type, uint32_t seq, std::span<const uint8_t> 
   return *n + 1;
 }
 
+uint16_t BallSigmaMm(float sigma_m) {
+  if (!(sigma_m >= 0.f)) return sigma_m < 0.f ? 0 : 65535;
+  const float mm = std::ceil(sigma_m * 1000.f);
+  return mm >= 65535.f ? 65535 : static_cast<uint16_t>(mm);
+}
+
 Result<size_t> EncodeBallState(const BallState& s, uint32_t seq, std::span<uint8_t> out) {
   uint8_t p[kBallStatePayloadBytes];
   ByteWriter w(p);
@@ -136,6 +142,7 @@ Result<size_t> EncodeBallState(const BallState& s, uint32_t seq, std::span<uint8
   w.U32(s.predict_ahead_us);
   w.F32(s.px_m), w.F32(s.py_m), w.F32(s.pz_m);
   w.U32(s.proc_us);
+  for (const float sigma : {s.sigma_x_m, s.sigma_y_m, s.sigma_z_m}) w.U16(BallSigmaMm(sigma));
   static_assert(sizeof(p) == kBallStatePayloadBytes);
   if (w.size() != kBallStatePayloadBytes) return Status(StatusCode::kInternal, "ball payload size");
   return EncodeFrame(MsgType::kBallState, seq, w.written(), out);
@@ -161,6 +168,7 @@ Status ParseBallState(std::span<const uint8_t> payload, BallState& out) {
   s.predict_ahead_us = r.U32();
   s.px_m = r.F32(), s.py_m = r.F32(), s.pz_m = r.F32();
   s.proc_us = r.U32();
+  s.sigma_x_m = r.U16() * 1e-3f, s.sigma_y_m = r.U16() * 1e-3f, s.sigma_z_m = r.U16() * 1e-3f;
   if (mode > static_cast<uint8_t>(BallMode::kBouncing)) {
     return Status(StatusCode::kInvalidArgument, "ball state: unknown mode");
   }

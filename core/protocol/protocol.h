@@ -15,7 +15,7 @@
 
 namespace bv::protocol {
 
-inline constexpr uint8_t kVersion = 1;
+inline constexpr uint8_t kVersion = 2;  // 2: the ball state carries its position sigma
 inline constexpr size_t kHeaderBytes = 10;
 inline constexpr size_t kCrcBytes = 4;
 inline constexpr size_t kMaxPayloadBytes = 1024;
@@ -58,7 +58,7 @@ enum class MsgType : uint8_t {
 /// listener built from another revision refuses the stream instead of misreading it.
 uint16_t SchemaHash();
 
-inline constexpr size_t kBallStatePayloadBytes = 92;
+inline constexpr size_t kBallStatePayloadBytes = 98;
 inline constexpr size_t kStatusPayloadBytes = 104;
 inline constexpr size_t kPosePayloadBytes = 42;
 // Line points per packet: the 35-51 a frame typically has fit whole; beyond, an evenly spread
@@ -170,6 +170,9 @@ enum class BlobState : uint8_t { kOk = 0, kMissing = 1, kCorrupt = 2 };
 /// kResourceExhausted (`out` smaller than the wire frame).
 Result<size_t> EncodeFrame(MsgType type, uint32_t seq, std::span<const uint8_t> payload,
                            std::span<uint8_t> out);
+/// A position 1-sigma as the ball state carries it: whole millimetres rounded up, saturated at
+/// 65535 (also for a non-finite value: "unknown" is as large as it gets).
+uint16_t BallSigmaMm(float sigma_m);
 Result<size_t> EncodeBallState(const BallState& state, uint32_t seq, std::span<uint8_t> out);
 Result<size_t> EncodeStatus(const StatusReport& status, uint32_t seq, std::span<uint8_t> out);
 Result<size_t> EncodePose(const PoseEstimate& pose, uint64_t t_us, uint32_t seq,

@@ -2,6 +2,8 @@
 
 #include <cstdio>
 
+#include "core/protocol/protocol.h"
+
 namespace bv::cli {
 namespace {
 
@@ -11,6 +13,12 @@ void Append(std::string& out, const char* fmt, double v) {
   out += buf;
 }
 
+std::string Pad3(int v) {
+  char buf[8];
+  std::snprintf(buf, sizeof buf, "%03d", v);
+  return buf;
+}
+
 }  // namespace
 
 std::string StatesCsvHeader(bool predict) {
@@ -18,7 +26,7 @@ std::string StatesCsvHeader(bool predict) {
       "index,t_us,found,x,y,z,vx,vy,vz,mode,omni_u,omni_v,persp_u,persp_v,ray_gap,t_bounce_us,"
       "proc_us";
   if (predict) h += ",px,py,pz";
-  return h + "\n";
+  return h + ",sigma_x,sigma_y,sigma_z\n";
 }
 
 std::string StatesCsvRow(int64_t index, const BallState& s, bool predict, bool with_proc) {
@@ -47,6 +55,12 @@ std::string StatesCsvRow(int64_t index, const BallState& s, bool predict, bool w
       r += ",";
       if (s.flags & kFlagHasPrediction) Append(r, "%.5f", v);
     }
+  }
+  // As the ball-state packet carries them (mm), so run and listen write the same.
+  for (float v : {s.sigma_x_m, s.sigma_y_m, s.sigma_z_m}) {
+    r += ",";
+    const int mm = protocol::BallSigmaMm(v);
+    if (s.found) r += std::to_string(mm / 1000) + "." + Pad3(mm % 1000);
   }
   return r + "\n";
 }

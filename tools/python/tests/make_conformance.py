@@ -16,11 +16,11 @@ from ballvision_link.protocol import HEADER, SCHEMA_HASH, cobs_encode  # noqa: E
 OUT = os.path.join(os.path.dirname(__file__), "..", "..", "..", "host_tests", "data",
                    "protocol_conformance.json")
 BALL, STATUS = 0x01, 0x02
-BALL_FMT = struct.Struct("<QHBB3f3ff2f2fQ2fI3fI")
+BALL_FMT = struct.Struct("<QHBB3f3ff2f2fQ2fI3fI3H")
 STATUS_FMT = struct.Struct("<Q12IBBH11I")
 
 
-def raw(mtype, seq, payload, version=1, schema=SCHEMA_HASH, length=None, crc_xor=0):
+def raw(mtype, seq, payload, version=2, schema=SCHEMA_HASH, length=None, crc_xor=0):
     body = HEADER.pack(version, mtype, schema, seq, len(payload) if length is None else length)
     body += payload
     return body + struct.pack("<I", (zlib.crc32(body) ^ crc_xor) & 0xFFFFFFFF)
@@ -32,7 +32,7 @@ def wire(r):
 
 def ball(t_us=1000000, flags=3, mode=1, found=1, x=0.25):
     return BALL_FMT.pack(t_us, flags, mode, found, x, 3.5, 0.11, -1, 0.5, 0, 0.004, 100.5,
-                         200.25, 300, 240, 0, 0, 0, 0, 0, 0, 0, 1234)
+                         200.25, 300, 240, 0, 0, 0, 0, 0, 0, 0, 1234, 12, 15, 40)
 
 
 def status(cal_state=0, lut_state=0):
@@ -72,7 +72,7 @@ def cases():
         case("over_garbage_then_valid", garbage + b"\x00" + w_ball, [(BALL, 41)], frames_ok=1,
              oversize=1, bytes_discarded=3000 - 1044),
         case("corrupt_crc", bad_crc, crc=1, bytes_discarded=len(bad_crc) - 1),
-        case("corrupt_version", wire(raw(BALL, 1, ball(), version=2)), version=1,
+        case("corrupt_version", wire(raw(BALL, 1, ball(), version=1)), version=1,
              bytes_discarded=len(wire(raw(BALL, 1, ball()))) - 1),
         case("corrupt_schema", wire(raw(BALL, 1, ball(), schema=SCHEMA_HASH ^ 1)), version=1,
              bytes_discarded=len(wire(raw(BALL, 1, ball()))) - 1),
