@@ -22,10 +22,10 @@ float AngleBetween(const Eigen::Vector3f& a, const Eigen::Vector3f& b) {
 // mirror's local scale, radially (elevation, from the neighbouring pixel's ray) and tangentially
 // (azimuth: one pixel is 1/rho of a turn, scaled by the ray's horizontal extent).
 void OmniRaySigma(const OmniCalibration& cal, const BallDetection& det, const Ray& ray,
-                  const PipelineConfig& config, BallRay& out) {
+                  float extra_px, const PipelineConfig& config, BallRay& out) {
   const float du = det.u_px - cal.center_u, dv = det.v_px - cal.center_v;
   const float rho = std::max(std::hypot(du, dv), 1.0f);
-  const float s_px = config.omni_sigma_px + config.omni_sigma_per_radius * det.radius_px;
+  const float s_px = config.omni_sigma_px + config.omni_sigma_per_radius * det.radius_px + extra_px;
   const float horiz = std::hypot(ray.dir.x(), ray.dir.y());
   const float s_az = s_px * std::max(horiz, 0.05f) / rho;
   out.sigma_h_rad = std::hypot(s_az, config.omni_azimuth_sigma_rad * horiz);
@@ -370,8 +370,9 @@ Status Pipeline::Process(const FrameInput& in, BallState& out) {
   if (in.omni.valid() && cal.omni.valid) out.omni = Detect(omni_finder_, in.omni, pred_omni_);
   if (in.persp.valid() && cal.persp.valid) out.persp = Detect(persp_finder_, in.persp, pred_persp_);
 
-  // 4. Rays. A ball cut by the mirror rim or the image border has a biased centroid and size:
-  // it is reported (seen) but not used for 3D.
+  // 4. Rays. A ball cut by the mirror rim or the image border has a biased centroid and size: its
+  // ray still goes to the filter, with half its radius more of centroid noise and no size cue
+  // (a raised ball at 4-5 m is seen at the rim; a ball within 1 m is cut by the persp border).
   Ray ray_o, ray_p;
   bool have_o = false, have_p = false;
   const bool omni_cut = out.omni.found && std::hypot(out.omni.u_px - cal.omni.center_u,
@@ -385,14 +386,14 @@ Status Pipeline::Process(const FrameInput& in, BallState& out) {
                           out.persp.v_px + pr > static_cast<float>(in.persp.height) - 1.5f);
   if (out.omni.found) out.flags |= kFlagSeenOmni;
   if (out.persp.found) out.flags |= kFlagSeenPersp;
-  if (out.omni.found && !omni_cut) {
+  if (out.omni.found) {
     auto ray = OmniPixelToRayExtended(cal.omni, out.omni.u_px, out.omni.v_px);
     if (ray.ok()) {
       ray_o = *ray;
       have_o = true;
     }
   }
-  if (out.persp.found && !persp_cut) {
+  if (out.persp.found) {
     auto ray = PerspPixelToRay(cal.persp, out.persp.u_px, out.persp.v_px);
     if (ray.ok()) {
       ray_p = *ray;
@@ -411,17 +412,18 @@ Status Pipeline::Process(const FrameInput& in, BallState& out) {
     omni_ray.origin = ray_o.origin;
     omni_ray.dir = ray_o.dir;
     omni_ray.camera = 0;
-    OmniRaySigma(cal.omni, out.omni, ray_o, config_, omni_ray);
+    OmniRaySigma(cal.omni, out.omni, ray_o, omni_cut ? 0.5f * out.omni.radius_px : 0.f, config_,
+                 omni_ray);
   }
   if (have_p) {
     persp_ray.origin = ray_p.origin;
     persp_ray.dir = ray_p.dir;
     persp_ray.camera = 1;
-    const float s =
-        (config_.persp_sigma_px + config_.persp_sigma_per_radius * out.persp.radius_px) /
-        std::max(cal.persp.fx, 1.0f);
+    const float s = (config_.persp_sigma_px + config_.persp_sigma_per_radius * out.persp.radius_px +
+                     (persp_cut ? 0.5f * out.persp.radius_px : 0.f)) /
+                    std::max(cal.persp.fx, 1.0f);
     persp_ray.sigma_h_rad = persp_ray.sigma_v_rad = s;
-    if (out.persp.radius_px > 0.5f) {
+    if (out.persp.radius_px > 0.5f && !persp_cut) {
       auto rim = PerspPixelToRay(cal.persp, out.persp.u_px + out.persp.radius_px, out.persp.v_px);
       if (rim.ok()) {
         auto q = PointFromApparentSize(ray_p, AngleBetween(ray_p.dir, rim->dir), r);

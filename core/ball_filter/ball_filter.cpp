@@ -788,21 +788,31 @@ void BallFilter::Evolve(float dt_s, Eigen::Vector3f& p, Eigen::Vector3f& v, Ball
   for (int k = 0; k <= kMaxContacts; ++k) {
     const float left = dt_s - t;
     if (motion == Motion::kAir) {
-      // Time to the floor: the parabola's root, refined twice with the drag at that time.
+      // Time to the floor: the parabola's root, refined twice with the drag at that time. A fit
+      // at or just below the floor and not rising is at its contact now (its parabola may have
+      // no root above the floor at all).
       float az = -g, tc = -1;
-      for (int it = 0; it < 3; ++it) {
-        const float disc = v.z() * v.z() - 2.f * az * (p.z() - r);
-        if (disc < 0.f || az >= 0.f) break;
-        tc = (-v.z() - std::sqrt(disc)) / az;
-        Eigen::Vector3f a, dv;
-        Accel(Motion::kAir, v, tc, a, dv);
-        az = tc > 1e-4f ? 2.f * a.z() / (tc * tc) : -g;
+      if (p.z() <= r && v.z() <= 0.f) {
+        tc = 0.f;
+      } else {
+        for (int it = 0; it < 3; ++it) {
+          const float disc = v.z() * v.z() - 2.f * az * (p.z() - r);
+          if (disc < 0.f || az >= 0.f) break;
+          const float t_new = (-v.z() - std::sqrt(disc)) / az;
+          if (!(t_new >= 0.f)) break;
+          tc = t_new;
+          Eigen::Vector3f a, dv;
+          Accel(Motion::kAir, v, tc, a, dv);
+          az = tc > 1e-4f ? 2.f * a.z() / (tc * tc) : -g;
+        }
       }
       if (tc < 0.f || left < tc || k == kMaxContacts) {
         Eigen::Vector3f a, adot;
         Accel(Motion::kAir, v, left, a, adot);
         p += v * left + a;
         v += adot;
+        // Never through the floor: a ball below it has met it (the contact was not found).
+        if (p.z() < r) p.z() = r;
         mode = bounced ? BallMode::kBouncing : BallMode::kFlying;
         return;
       }
