@@ -429,6 +429,13 @@ BallFilter::Fit BallFilter::SolveFlight(const Segment& seg) const {
   return best;
 }
 
+uint16_t BallFilter::UpdateObservable() {
+  const float pos_var = fit_.cov(0, 0) + fit_.cov(1, 1) + fit_.cov(2, 2);
+  observable_ = tracking_ && fit_.ok && !fit_.ambiguous &&
+                pos_var < cfg_.unobservable_sigma_m * cfg_.unobservable_sigma_m;
+  return observable_ ? 0 : kFlagUnobservable;
+}
+
 void BallFilter::Refit() {
   Fit f = Solve(seg_, fit_.x);
   if (Plausible(f)) {
@@ -579,7 +586,7 @@ uint16_t BallFilter::Update(const BallObservation& in) {
   if (!tracking_ || obs.t_us > t_ref_us_ + cfg_.coast_us) {
     if (!have_point) return kFlagOutlierRejected;
     StartTrack(obs);
-    return tracking_ ? 0 : kFlagOutlierRejected;
+    return tracking_ ? UpdateObservable() : static_cast<uint16_t>(kFlagOutlierRejected);
   }
 
   // Gate: each ray against the prediction.
@@ -618,7 +625,7 @@ uint16_t BallFilter::Update(const BallObservation& in) {
         Push(obs);
         t_ref_us_ = obs.t_us;
         Refit();
-        return 0;
+        return UpdateObservable();
       }
       return kFlagOutlierRejected;
     }
@@ -768,9 +775,7 @@ uint16_t BallFilter::Update(const BallObservation& in) {
       StartTrack(kept);
     }
   }
-  const float pos_var = fit_.cov(0, 0) + fit_.cov(1, 1) + fit_.cov(2, 2);
-  observable_ = !fit_.ambiguous && pos_var < cfg_.unobservable_sigma_m * cfg_.unobservable_sigma_m;
-  return observable_ ? 0 : kFlagUnobservable;
+  return UpdateObservable();
 }
 
 // Forward in time from the reference state, piecewise closed form: arcs (gravity, drag at the

@@ -146,6 +146,7 @@ class BallFilter {
   void StartTrack(const BallObservation& obs);
   bool TryBounce(uint64_t t_new_us);
   void Refit();
+  uint16_t UpdateObservable();  // sets observable_; returns kFlagUnobservable or 0
   void Evolve(float dt_s, Eigen::Vector3f& p, Eigen::Vector3f& v, BallMode& mode,
               uint64_t* contacts, float* cx, float* cy, int max_contacts, int& n_contacts) const;
 

@@ -1,12 +1,9 @@
 // ballvision listen: the main computer's side of the serial link. Reads a serial device, a pty,
 // a file, stdin or a TCP socket (QEMU's -chardev socket), decodes with core/protocol, shows a
 // live table and writes CSV.
-#include <arpa/inet.h>
 #include <fcntl.h>
-#include <netdb.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
-#include <termios.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -20,6 +17,7 @@
 #include "core/protocol/protocol.h"
 #include "tools/ballvision/cli_args.h"
 #include "tools/ballvision/commands.h"
+#include "tools/ballvision/link_io.h"
 #include "tools/ballvision/safe_write.h"
 #include "tools/ballvision/signals.h"
 #include "tools/ballvision/states_csv.h"
@@ -37,89 +35,6 @@ constexpr char kListenUsage[] =
     "  Prints a live table (unless --quiet) and a summary; exit 1 if nothing valid\n"
     "  was received. --lines-csv / --obstacles-csv / --goals-csv: one row per point /\n"
     "  obstacle / goal (robot frame, m, rad), with the packet's seq, t_us and found count.\n";
-
-speed_t BaudFlag(long baud) {
-  switch (baud) {
-    case 9600:
-      return B9600;
-    case 19200:
-      return B19200;
-    case 38400:
-      return B38400;
-    case 57600:
-      return B57600;
-    case 115200:
-      return B115200;
-    case 230400:
-      return B230400;
-    case 460800:
-      return B460800;
-    case 921600:
-      return B921600;
-    case 1000000:
-      return B1000000;
-    case 2000000:
-      return B2000000;
-    default:
-      return 0;
-  }
-}
-
-int OpenSource(const std::string& src, long baud, std::string& err) {
-  if (src == "-") return STDIN_FILENO;
-  if (src.rfind("tcp:", 0) == 0) {
-    const std::string rest = src.substr(4);
-    const size_t colon = rest.rfind(':');
-    if (colon == std::string::npos) {
-      err = "tcp source must be tcp:HOST:PORT";
-      return -1;
-    }
-    addrinfo hints{};
-    hints.ai_family = AF_UNSPEC;
-    hints.ai_socktype = SOCK_STREAM;
-    addrinfo* res = nullptr;
-    const std::string host = rest.substr(0, colon), port = rest.substr(colon + 1);
-    if (getaddrinfo(host.c_str(), port.c_str(), &hints, &res) != 0 || !res) {
-      err = "cannot resolve " + host + ":" + port;
-      return -1;
-    }
-    int fd = -1;
-    for (int attempt = 0; attempt < 50 && fd < 0; ++attempt) {  // QEMU may still be starting
-      fd = socket(res->ai_family, res->ai_socktype, res->ai_protocol);
-      if (fd >= 0 && connect(fd, res->ai_addr, res->ai_addrlen) != 0) {
-        close(fd);
-        fd = -1;
-        usleep(100000);
-      }
-    }
-    freeaddrinfo(res);
-    if (fd < 0) err = "cannot connect to " + src + ": " + std::strerror(errno);
-    return fd;
-  }
-  const int fd = open(src.c_str(), O_RDONLY | O_NOCTTY);
-  if (fd < 0) {
-    err = "cannot open " + src + ": " + std::strerror(errno);
-    return -1;
-  }
-  if (isatty(fd)) {
-    termios t{};
-    if (tcgetattr(fd, &t) == 0) {
-      cfmakeraw(&t);
-      const speed_t sp = BaudFlag(baud);
-      if (!sp) {
-        err = "unsupported baud rate " + std::to_string(baud);
-        close(fd);
-        return -1;
-      }
-      cfsetispeed(&t, sp);
-      cfsetospeed(&t, sp);
-      t.c_cc[VMIN] = 0;
-      t.c_cc[VTIME] = 2;  // reads return after 0.2 s so --seconds is honoured
-      tcsetattr(fd, TCSANOW, &t);
-    }
-  }
-  return fd;
-}
 
 // Both files are committed even if one fails: what was received is kept where possible.
 bool FinishListenOutputs(SafeOutput& csv, SafeOutput& status_csv) {
@@ -260,8 +175,7 @@ struct FieldStreams {
 }  // namespace
 
 int CmdListen(int argc, char** argv) {
-  std::string source, csv_path, status_path, pose_path, lines_path, obstacles_path,
-      goals_path;
+  std::string source, csv_path, status_path, pose_path, lines_path, obstacles_path, goals_path;
   long baud = 921600;
   double seconds = 0;
   bool quiet = false;
@@ -276,7 +190,7 @@ int CmdListen(int argc, char** argv) {
       .Custom("--baud",
               [&baud](const std::string& v, std::string& error) {
                 if (!ArgIntAs("--baud", v, 1, 4000000, baud, error)) return false;
-                if (BaudFlag(baud)) return true;
+                if (BaudSupported(baud)) return true;
                 error = "--baud: unsupported rate " + std::to_string(baud);
                 return false;
               })
@@ -284,7 +198,8 @@ int CmdListen(int argc, char** argv) {
       .Flag("--quiet", quiet);
   if (const int rc = p.Parse(argc, argv); rc >= 0) return rc;
   std::string err;
-  const int fd = OpenSource(source, baud, err);
+  bool writable = false;  // listen only reads
+  const int fd = OpenLink(source, baud, writable, err, /*read_only=*/true);
   if (fd < 0) {
     std::fprintf(stderr, "ballvision listen: %s\n", err.c_str());
     return 1;

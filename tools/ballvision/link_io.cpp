@@ -15,6 +15,14 @@ namespace {
 
 speed_t Baud(long baud) {
   switch (baud) {
+    case 9600:
+      return B9600;
+    case 19200:
+      return B19200;
+    case 38400:
+      return B38400;
+    case 57600:
+      return B57600;
     case 115200:
       return B115200;
     case 230400:
@@ -34,7 +42,9 @@ speed_t Baud(long baud) {
 
 }  // namespace
 
-int OpenLink(const std::string& src, long baud, bool& writable, std::string& err) {
+bool BaudSupported(long baud) { return Baud(baud) != 0; }
+
+int OpenLink(const std::string& src, long baud, bool& writable, std::string& err, bool read_only) {
   writable = false;
   if (src == "-") return STDIN_FILENO;
   if (src.rfind("tcp:", 0) == 0) {
@@ -69,12 +79,12 @@ int OpenLink(const std::string& src, long baud, bool& writable, std::string& err
   }
   struct stat st {};
   const bool regular = stat(src.c_str(), &st) == 0 && S_ISREG(st.st_mode);
-  const int fd = open(src.c_str(), (regular ? O_RDONLY : O_RDWR) | O_NOCTTY);
+  const int fd = open(src.c_str(), (regular || read_only ? O_RDONLY : O_RDWR) | O_NOCTTY);
   if (fd < 0) {
     err = "cannot open " + src + ": " + std::strerror(errno);
     return -1;
   }
-  writable = !regular;
+  writable = !regular && !read_only;
   if (isatty(fd)) {
     termios t{};
     if (tcgetattr(fd, &t) == 0) {
@@ -88,7 +98,7 @@ int OpenLink(const std::string& src, long baud, bool& writable, std::string& err
       cfsetispeed(&t, sp);
       cfsetospeed(&t, sp);
       t.c_cc[VMIN] = 0;
-      t.c_cc[VTIME] = 2;
+      t.c_cc[VTIME] = 2;  // reads return after 0.2 s so --seconds is honoured
       tcsetattr(fd, TCSANOW, &t);
     }
   }
