@@ -3,8 +3,6 @@
 #include <algorithm>
 #include <cmath>
 
-#include <cstdio>
-#include <cstdlib>
 #include "core/color_lut/color_lut.h"
 
 namespace bv {
@@ -462,8 +460,8 @@ Status Pipeline::Process(const FrameInput& in, BallState& out) {
     if (have_o) obs.rays[obs.n_rays++] = omni_ray;
     if (have_p) obs.rays[obs.n_rays++] = persp_ray;
   } else {
-    // Two different objects: the one nearer the prediction (or the omni one, which sees the
-    // whole field) goes in; the filter's gate has the final word.
+    // Two different objects: the omni one goes in (it sees the whole field); the filter's gate
+    // has the final word.
     obs.rays[obs.n_rays++] = omni_ray;
   }
   if (obs.n_rays == 1) {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include <Eigen/Geometry>  // cross products
 
@@ -13,7 +14,7 @@ using Mat6 = Eigen::Matrix<float, 6, 6>;
 
 constexpr float kSigmaFloorM = 0.003f;  // metric noise floor of a ray (centroid quantisation)
 constexpr float kMinDepthM = 0.1f;      // depth along a ray used for its angular residual
-constexpr int kColdIterations = 4;      // ... from a point on a ray
+constexpr int kColdIterations = 4;      // Gauss-Newton steps from a point on a ray (warm: 2)
 constexpr float kModelCheckChi2PerDof = 1.5f;  // a fit this much worse than the noise is checked
 constexpr float kConstraintWeight = 1e6f;      // rolling: z = r, vz = 0 (1 mm, 1 mm/s)
 constexpr float kRegPos = 1e-4f;               // 100 m: keeps an unobserved direction finite
@@ -23,12 +24,10 @@ constexpr float kRestSpeedMps = 0.02f;         // slower: at rest (no rolling de
 constexpr float kHuberSigma = 3.f;             // residuals beyond this many sigmas count linearly
 constexpr float kStopCheckSpeedMps = 0.5f;  // a rolling fit this slow is checked for having stopped
 constexpr float kOffSigma = 3.f;  // a frame this far from the prediction may start a segment
-constexpr int kRestFrames = 4;
-constexpr float kUnobservableGateRad = 0.15f;
-constexpr float kUnknownDepthM = 4.f;  // where a lone ray above the floor's horizon starts  //
-                                       // direction gate while the range is unknown
-constexpr float kAmbiguousChi2 = 4.f;  // two flights this close in chi^2 but apart: ambiguous //
-                                       // frames that must agree with a ball at rest
+constexpr int kRestFrames = 4;    // frames that must agree with a ball at rest
+constexpr float kUnobservableGateRad = 0.15f;  // direction gate while the range is unknown
+constexpr float kUnknownDepthM = 4.f;          // where a lone ray above the floor's horizon starts
+constexpr float kAmbiguousChi2 = 4.f;  // two flights this close in chi^2 but apart: ambiguous
 
 float Seconds(uint64_t a_us, uint64_t b_us) {  // a - b in seconds, signed
   return a_us >= b_us ? static_cast<float>(a_us - b_us) * 1e-6f
@@ -436,8 +435,19 @@ uint16_t BallFilter::UpdateObservable() {
   return observable_ ? 0 : kFlagUnobservable;
 }
 
+bool BallFilter::SwitchToFlight(float max_speed_mps) {
+  Segment air = seg_;
+  air.motion = Motion::kAir;
+  air.at_rest = false;
+  const Fit f = SolveFlight(air);
+  if (!Plausible(f) || f.x.tail<3>().norm() > max_speed_mps) return false;
+  seg_ = air;
+  fit_ = f;
+  return true;
+}
+
 void BallFilter::Refit() {
-  Fit f = Solve(seg_, fit_.x);
+  const Fit f = Solve(seg_, fit_.x);
   if (Plausible(f)) {
     fit_ = f;
     return;
@@ -445,15 +455,7 @@ void BallFilter::Refit() {
   // Gauss-Newton from a poor state can land behind a camera or inside the robot, and a floor fit
   // of a ball in the air runs out along near-horizontal rays: the flight fitted from points on
   // the rays, else the frame alone.
-  Segment air = seg_;
-  air.motion = Motion::kAir;
-  air.at_rest = false;
-  f = SolveFlight(air);
-  if (Plausible(f)) {
-    seg_ = air;
-    fit_ = f;
-    return;
-  }
+  if (SwitchToFlight(std::numeric_limits<float>::infinity())) return;
   BallObservation newest;
   newest.t_us = Newest(0).t_us;
   newest.n_rays = Newest(0).n;
@@ -748,9 +750,7 @@ uint16_t BallFilter::Update(const BallObservation& in) {
       b_ = (b_ * n + b_est) / (n + 1.f);
       ++b_samples_;
       if (seg_.v_in_h > 0.5f) {
-        const float t_est = fit_.x.head<2>().norm() > 0.f
-                                ? std::hypot(fit_.x(3), fit_.x(4)) / seg_.v_in_h
-                                : tangential_;
+        const float t_est = std::hypot(fit_.x(3), fit_.x(4)) / seg_.v_in_h;
         if (t_est > 0.3f && t_est <= 1.05f) tangential_ = 0.5f * (tangential_ + t_est);
       }
     }
@@ -764,16 +764,7 @@ uint16_t BallFilter::Update(const BallObservation& in) {
     // No ball moves like that. A floor fit of one camera's rays of a ball in the air runs away
     // along them: a flight over the same frames may explain them. Otherwise the frames disagree
     // beyond any motion (a wrong detection before): start again from this frame.
-    Segment air = seg_;
-    air.motion = Motion::kAir;
-    air.at_rest = false;
-    const Fit fa = SolveFlight(air);
-    if (Plausible(fa) && fa.x.tail<3>().norm() <= cfg_.max_speed_mps) {
-      seg_ = air;
-      fit_ = fa;
-    } else {
-      StartTrack(kept);
-    }
+    if (!SwitchToFlight(cfg_.max_speed_mps)) StartTrack(kept);
   }
   return UpdateObservable();
 }

@@ -143,6 +143,8 @@ class BallFilter {
   bool PointOf(const BallObservation& obs, Eigen::Vector3f& p) const;
   bool Plausible(const Fit& f) const;
   Fit SolveFlight(const Segment& seg) const;
+  // The segment as a flight, if a plausible one no faster than max_speed_mps explains its rays.
+  bool SwitchToFlight(float max_speed_mps);
   void StartTrack(const BallObservation& obs);
   bool TryBounce(uint64_t t_new_us);
   void Refit();
