@@ -180,21 +180,9 @@ int CmdCapture(int argc, char** argv) {
   uint8_t buf[4096];
   bool done = false;
   while (!done && !write_failed) {
-    if (InterruptSignal()) break;
-    if (seconds > 0 &&
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() > seconds) {
-      break;
-    }
-    const ssize_t n = read(fd, buf, sizeof buf);
-    if (n < 0 && errno == EINTR) continue;
-    if (n < 0) {
-      std::fprintf(stderr, "ballvision capture: read failed: %s\n", std::strerror(errno));
-      break;
-    }
-    if (n == 0) {
-      if (isatty(fd)) continue;
-      break;
-    }
+    const ssize_t n = ReadLinkChunk(fd, buf, sizeof buf, start, seconds, "ballvision capture");
+    if (n < 0) break;
+    if (n == 0) continue;
     for (ssize_t i = 0; i < n && !done; ++i) {
       if (!decoder.Push(buf[i], frame)) continue;
       if (frame.type == protocol::MsgType::kError && frame.payload.size() == 10 &&

@@ -234,21 +234,9 @@ int CmdListen(int argc, char** argv) {
   const auto start = std::chrono::steady_clock::now();
   uint8_t buf[4096];
   for (;;) {
-    if (InterruptSignal()) break;
-    if (seconds > 0 &&
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() > seconds) {
-      break;
-    }
-    const ssize_t n = read(fd, buf, sizeof buf);
-    if (n < 0 && errno == EINTR) continue;
-    if (n < 0) {
-      std::fprintf(stderr, "ballvision listen: read failed: %s\n", std::strerror(errno));
-      break;
-    }
-    if (n == 0) {
-      if (isatty(fd)) continue;
-      break;  // end of file / socket closed
-    }
+    const ssize_t n = ReadLinkChunk(fd, buf, sizeof buf, start, seconds, "ballvision listen");
+    if (n < 0) break;
+    if (n == 0) continue;
     for (ssize_t i = 0; i < n; ++i) {
       if (!decoder.Push(buf[i], frame)) continue;
       if (have_seq && frame.seq != last_seq + 1) ++seq_gaps;

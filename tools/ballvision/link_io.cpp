@@ -8,7 +8,10 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
+
+#include "tools/ballvision/signals.h"
 
 namespace bv::cli {
 namespace {
@@ -103,6 +106,24 @@ int OpenLink(const std::string& src, long baud, bool& writable, std::string& err
     }
   }
   return fd;
+}
+
+ssize_t ReadLinkChunk(int fd, uint8_t* buf, size_t size,
+                      std::chrono::steady_clock::time_point start, double seconds,
+                      const char* cmd) {
+  if (InterruptSignal()) return -1;
+  if (seconds > 0 &&
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() > seconds) {
+    return -1;
+  }
+  const ssize_t n = read(fd, buf, size);
+  if (n < 0 && errno == EINTR) return 0;
+  if (n < 0) {
+    std::fprintf(stderr, "%s: read failed: %s\n", cmd, std::strerror(errno));
+    return -1;
+  }
+  if (n == 0) return isatty(fd) ? 0 : -1;  // end of file / socket closed
+  return n;
 }
 
 }  // namespace bv::cli
