@@ -166,6 +166,10 @@ int CmdSync(int argc, char** argv) {
       const Result<size_t> n = protocol::EncodeClockSyncRequest(req, id, wire);
       sync.OnRequestSent(req.id, static_cast<int64_t>(req.t1_host_us));
       if (!n.ok() || write(fd, wire, *n) != static_cast<ssize_t>(*n)) {
+        if (n.ok() && (errno == EPIPE || errno == ECONNRESET)) {
+          closed = true;
+          break;
+        }
         std::fprintf(stderr, "ballvision sync: write failed: %s\n", std::strerror(errno));
         break;
       }

@@ -8,6 +8,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <csignal>
 #include <cstdio>
 #include <cstring>
 
@@ -49,6 +50,9 @@ bool BaudSupported(long baud) { return Baud(baud) != 0; }
 
 int OpenLink(const std::string& src, long baud, bool& writable, std::string& err, bool read_only) {
   writable = false;
+  // A board that exits closes its socket: a write must fail with EPIPE (the command ends and
+  // reports what it has), not kill the process with SIGPIPE.
+  if (!read_only) std::signal(SIGPIPE, SIG_IGN);
   if (src == "-") return STDIN_FILENO;
   if (src.rfind("tcp:", 0) == 0) {
     const std::string rest = src.substr(4);

@@ -89,6 +89,8 @@ def _open_tcp(source: str):
             return s.recv(4096)  # b"" only when the peer closed the connection
         except socket.timeout:
             return None
+        except ConnectionResetError:  # a hang-up is an end of stream, as a close is
+            return b""
     return read
 
 POSE_COLUMNS = ["seq", "t_us", "state", "x", "y", "heading", "sigma_x", "sigma_y",

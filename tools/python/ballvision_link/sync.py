@@ -26,7 +26,7 @@ class _Link:
             host, _, port = source[4:].rpartition(":")
             self._sock = socket.create_connection((host, int(port)), timeout=5)
             self._sock.settimeout(0.01)
-            self.read, self.write = self._read_sock, self._sock.sendall
+            self.read, self.write = self._read_sock, self._write_sock
         else:
             try:
                 import serial  # pyserial (Debian python3-serial)
@@ -36,11 +36,19 @@ class _Link:
             port = serial.Serial(source, baudrate=baud, timeout=0.01)
             self.read, self.write = lambda: port.read(4096), port.write
 
+    def _write_sock(self, data: bytes) -> None:
+        try:
+            self._sock.sendall(data)
+        except (BrokenPipeError, ConnectionResetError):
+            raise EOFError("the coprocessor closed the connection")
+
     def _read_sock(self) -> bytes:
         try:
             data = self._sock.recv(4096)
         except socket.timeout:
             return b""
+        except ConnectionResetError:  # the board exited with our last request unread
+            raise EOFError("the coprocessor closed the connection")
         if not data:
             raise EOFError("the coprocessor closed the connection")
         return data
