@@ -17,7 +17,11 @@ constexpr char kUsage[] =
     "usage: ballvision calib to-blob CALIB(.json|.bin) OUT.bin\n"
     "       ballvision calib to-json CALIB(.json|.bin) OUT.json\n"
     "       ballvision calib show CALIB(.json|.bin)\n"
-    "       ballvision calib set CALIB.json [--lut-id N] [--ball-radius M]\n";
+    "       ballvision calib set CALIB.json [--lut-id N] [--ball-radius M]\n"
+    "       ballvision calib rays CALIB(.json|.bin) --camera omni|persp < PIXELS\n"
+    "  rays: reads 'u v' pixel lines on stdin, writes one CSV line per pixel:\n"
+    "  u,v,ok,ox,oy,oz,dx,dy,dz (robot frame; the omni ray as the pipeline uses it,\n"
+    "  beyond the distance map included; ok 0 = no ray, the rest empty)\n";
 
 void Show(const RigCalibration& c) {
   std::printf("calibration_id 0x%08x  lut_id 0x%08x  ball_radius_m %.4f\n", c.calibration_id,
@@ -170,12 +174,59 @@ int Set(int argc, char** argv) {
   return 0;
 }
 
+// The rays the pipeline would use, for checks against a rig model (tools/python/validate_rays.py).
+int Rays(int argc, char** argv) {
+  std::string in, camera;
+  ArgParser p("ballvision calib rays", kUsage);
+  p.Positional("CALIB", in).Text("--camera", camera).Required("--camera");
+  if (const int rc = p.Parse(argc, argv); rc >= 0) return rc;
+  if (camera != "omni" && camera != "persp") {
+    return p.UsageError("--camera: got '" + camera + "', expected omni or persp");
+  }
+  RigCalibration cal;
+  std::string error;
+  if (!LoadCalibrationFile(in, cal, error)) {
+    std::fprintf(stderr, "calib rays: %s\n", error.c_str());
+    return 1;
+  }
+  if (camera == "omni" ? !cal.omni.valid : !cal.persp.valid) {
+    std::fprintf(stderr, "calib rays: %s has no %s calibration\n", in.c_str(), camera.c_str());
+    return 1;
+  }
+  std::printf("u,v,ok,ox,oy,oz,dx,dy,dz\n");
+  char line[256];
+  long line_no = 0;
+  while (std::fgets(line, sizeof line, stdin) != nullptr) {
+    ++line_no;
+    double u = 0, v = 0;
+    char extra = 0;
+    const int got = std::sscanf(line, "%lf %lf %c", &u, &v, &extra);
+    if (got == EOF) continue;  // blank line
+    if (got != 2 || !std::isfinite(u) || !std::isfinite(v)) {
+      std::fprintf(stderr, "calib rays: stdin line %ld: expected 'u v', got '%s'\n", line_no,
+                   line);
+      return 1;
+    }
+    const Result<Ray> r =
+        camera == "omni"
+            ? OmniPixelToRayExtended(cal.omni, static_cast<float>(u), static_cast<float>(v))
+            : PerspPixelToRay(cal.persp, static_cast<float>(u), static_cast<float>(v));
+    if (!r.ok()) {
+      std::printf("%.3f,%.3f,0,,,,,,\n", u, v);
+      continue;
+    }
+    std::printf("%.3f,%.3f,1,%.6f,%.6f,%.6f,%.7f,%.7f,%.7f\n", u, v, r->origin.x(),
+                r->origin.y(), r->origin.z(), r->dir.x(), r->dir.y(), r->dir.z());
+  }
+  return 0;
+}
+
 }  // namespace
 
 int CmdCalib(int argc, char** argv) {
   return RunSubCommand(
       "ballvision calib", kUsage, argc, argv,
-      {{"show", ShowFile}, {"to-blob", Convert}, {"to-json", Convert}, {"set", Set}});
+      {{"show", ShowFile}, {"to-blob", Convert}, {"to-json", Convert}, {"set", Set}, {"rays", Rays}});
 }
 
 }  // namespace bv::cli
