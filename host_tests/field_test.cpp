@@ -172,9 +172,10 @@ void MakeLinePoints(const Pose& p, std::mt19937& rng, FieldFeatures& f, double n
   }
 }
 
-// Frames of a global search: 2106 grid poses at 100 a frame (22 frames), then 12 candidates
-// refined 2 a frame (6 frames): 0.93 s at 30 Hz; 30 frames leave room.
-constexpr int kSearchFrames = 30;
+// Frames of a global search: 2106 grid poses at up to 100 and 1200 scored points a frame (the
+// first frames score every pose in full, ~50 a frame; later most are pruned after a few points),
+// then 12 candidates refined 2 a frame (6 frames): about 1.1 s at 30 Hz; 36 frames leave room.
+constexpr int kSearchFrames = 36;
 
 struct Loc {
   std::unique_ptr<FieldModel> model = std::make_unique<FieldModel>();

@@ -114,18 +114,20 @@ Status BallFinder::Find(const YuyvImage& image, const ColorLut& lut, const Predi
   const ChromaBox box = config_.ball_box;
   const uint8_t* row = data;
   int row_v = 0;
-  bool prefetch = false;
   bool in_run = false;
+  // A fresh frame is cold in cache: each sample hints the pixel kPrefetchRows below. Always, also
+  // past the frame's end (a hint never faults; the address is formed as an integer): the bounds
+  // test cost 3 of the 5 instructions the hint took per sample (~70 k per frame pair in QEMU).
+  const uintptr_t ahead = static_cast<uintptr_t>(kPrefetchRows) * static_cast<uintptr_t>(stride);
   scan_->ForEachSample(
       [&](int v) {
         row = data + v * stride;
         row_v = v;
-        prefetch = v + kPrefetchRows < image.height;
       },
       [&](int u, bool restart) {
         const uint8_t* pair = row + (u & ~1) * 2;
-        // A fresh frame is cold in cache: fetch the rows below while this one is classified.
-        if (prefetch) __builtin_prefetch(pair + kPrefetchRows * stride);
+        __builtin_prefetch(
+            reinterpret_cast<const void*>(reinterpret_cast<uintptr_t>(pair) + ahead));
         const bool ball = box.Contains(pair[1], pair[3]) &&
                           lut.Classify(pair[(u & 1) * 2], pair[1], pair[3]) == ColorClass::kBall;
         if (ball && (restart || !in_run)) Seed(image, lut, u, row_v, stats);

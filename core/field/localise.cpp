@@ -38,7 +38,8 @@ Status Localiser::Init(const FieldModel* field, const LocaliserConfig& config) {
     return Status(StatusCode::kFailedPrecondition, "localiser: field model not ready");
   }
   if (!(config.c_m > 0.0f) || config.track_iterations < 1 || config.track_iterations > 20 ||
-      config.min_points < 3 || config.evals_per_frame < 1 || !(config.grid_m >= 0.1f) ||
+      config.min_points < 3 || config.evals_per_frame < 1 ||
+      config.search_points_per_frame < kScorePoints || !(config.grid_m >= 0.1f) ||
       !(config.inlier_m > 0.0f) || config.lost_after_bad_frames < 1) {
     return Status(StatusCode::kInvalidArgument, "localiser: bad configuration");
   }
@@ -95,7 +96,7 @@ int Localiser::FinitePoints(const FieldFeatures& f, int stride) {
 // the running sum passes `give_up` (times the points) the pose cannot beat it: returned as is
 // (> give_up), the rest not scored.
 float Localiser::Score(const FieldFeatures& f, float x, float y, float s, float co, int stride,
-                       int points, float give_up) const {
+                       int points, float give_up, int* scored) const {
   if (points == 0) return 1.0f;
   const float c = kSearchCPerGrid * config_.grid_m, c2 = c * c;
   const float limit = give_up * static_cast<float>(points);
@@ -104,6 +105,7 @@ float Localiser::Score(const FieldFeatures& f, float x, float y, float s, float 
     if (!Finite(f.lines[i])) continue;
     const float rx = f.lines[i].x_m, ry = f.lines[i].y_m;
     sum += 1.0f - c2 / (c2 + field_->Distance2(x + rx * s + ry * co, y - rx * co + ry * s));
+    if (scored != nullptr) ++*scored;
     if (sum > limit) break;
   }
   return sum / static_cast<float>(points);
@@ -255,8 +257,11 @@ void Localiser::Keep(const Candidate& c) {
 
 void Localiser::ContinueSearch(const FieldFeatures& f) {
   const FieldConfig& fc = field_->config();
+  // The budget is in scored points, not poses: early on every pose is scored in full, later
+  // the kept list prunes most poses after a few points and more of them fit in a frame.
   const int end = std::min(search_total_, search_next_ + config_.evals_per_frame);
   const bool evaluated = search_next_ < end;
+  int points_left = config_.search_points_per_frame;
   float sin_h[2], cos_h[2];
   for (int k = 0; k < 2; ++k) {
     sin_h[k] = std::sin(search_h_[k]);
@@ -264,7 +269,7 @@ void Localiser::ContinueSearch(const FieldFeatures& f) {
   }
   const int score_stride = std::max(1, (f.line_count + kScorePoints - 1) / kScorePoints);
   const int score_points = FinitePoints(f, score_stride);
-  for (; search_next_ < end; ++search_next_) {
+  for (; search_next_ < end && points_left > 0; ++search_next_) {
     const int hk = search_next_ / (search_nx_ * search_ny_);
     const int rest = search_next_ % (search_nx_ * search_ny_);
     const float x =
@@ -274,7 +279,10 @@ void Localiser::ContinueSearch(const FieldFeatures& f) {
     // Only a pose better than the worst kept candidate can enter (Keep): stop scoring one that
     // cannot. The kept list is the same as with full scores.
     const float give_up = best_count_ == kMaxCandidates ? best_[kMaxCandidates - 1].score : 1e30f;
-    const float s = Score(f, x, y, sin_h[hk], cos_h[hk], score_stride, score_points, give_up);
+    int scored = 0;
+    const float s =
+        Score(f, x, y, sin_h[hk], cos_h[hk], score_stride, score_points, give_up, &scored);
+    points_left -= scored;
     ++pose_.evaluations;
     if (s < give_up) Keep(Candidate{x, y, search_h_[hk], s});
   }

@@ -23,16 +23,17 @@
 namespace bv {
 
 struct LocaliserConfig {
-  float c_m = 0.25f;                  // error function scale (the paper's 250 mm)
-  int track_iterations = 6;           // Gauss-Newton steps per frame while tracking
-  int min_points = 8;                 // fewer line points: no update (coast)
-  float inlier_m = 0.2f;              // a point this close to a line is an inlier
-  float good_inlier_ratio = 0.5f;     // tracking: a fit this good keeps the pose
-  float global_inlier_ratio = 0.75f;  // a global search result must fit this well
-  int lost_after_bad_frames = 20;     // bad fits in a row: relocalise globally
-  int evals_per_frame = 100;          // global search budget (pose evaluations per frame)
-  float grid_m = 0.5f;                // global search position grid
-  float coast_pos_mps = 0.5f;         // sigma growth while coasting without odometry
+  float c_m = 0.25f;                   // error function scale (the paper's 250 mm)
+  int track_iterations = 6;            // Gauss-Newton steps per frame while tracking
+  int min_points = 8;                  // fewer line points: no update (coast)
+  float inlier_m = 0.2f;               // a point this close to a line is an inlier
+  float good_inlier_ratio = 0.5f;      // tracking: a fit this good keeps the pose
+  float global_inlier_ratio = 0.75f;   // a global search result must fit this well
+  int lost_after_bad_frames = 20;      // bad fits in a row: relocalise globally
+  int evals_per_frame = 100;           // global search: at most this many poses per frame ...
+  int search_points_per_frame = 1200;  // ... and this many line points scored (the cost)
+  float grid_m = 0.5f;                 // global search position grid
+  float coast_pos_mps = 0.5f;          // sigma growth while coasting without odometry
   float coast_heading_radps = 0.2f;
   float usable_sigma_m = 0.5f;      // beyond: pose not used for the in-field rule
   float max_fit_sigma_m = 0.15f;    // a fit less certain than this (lines in one direction) or
@@ -80,9 +81,10 @@ class Localiser {
   float Score(const FieldFeatures& f, float x, float y, float h, int max_points) const;
 
  private:
-  // `give_up`: stop once the mean cannot stay below it (the global search's pruning).
+  // `give_up`: stop once the mean cannot stay below it (the global search's pruning); `scored`
+  // (if given) counts the points scored.
   float Score(const FieldFeatures& f, float x, float y, float s, float co, int stride, int points,
-              float give_up) const;
+              float give_up, int* scored = nullptr) const;
   static int FinitePoints(const FieldFeatures& f, int stride);
 
   struct Candidate {

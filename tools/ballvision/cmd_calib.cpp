@@ -203,8 +203,7 @@ int Rays(int argc, char** argv) {
     const int got = std::sscanf(line, "%lf %lf %c", &u, &v, &extra);
     if (got == EOF) continue;  // blank line
     if (got != 2 || !std::isfinite(u) || !std::isfinite(v)) {
-      std::fprintf(stderr, "calib rays: stdin line %ld: expected 'u v', got '%s'\n", line_no,
-                   line);
+      std::fprintf(stderr, "calib rays: stdin line %ld: expected 'u v', got '%s'\n", line_no, line);
       return 1;
     }
     const Result<Ray> r =
@@ -215,8 +214,8 @@ int Rays(int argc, char** argv) {
       std::printf("%.3f,%.3f,0,,,,,,\n", u, v);
       continue;
     }
-    std::printf("%.3f,%.3f,1,%.6f,%.6f,%.6f,%.7f,%.7f,%.7f\n", u, v, r->origin.x(),
-                r->origin.y(), r->origin.z(), r->dir.x(), r->dir.y(), r->dir.z());
+    std::printf("%.3f,%.3f,1,%.6f,%.6f,%.6f,%.7f,%.7f,%.7f\n", u, v, r->origin.x(), r->origin.y(),
+                r->origin.z(), r->dir.x(), r->dir.y(), r->dir.z());
   }
   return 0;
 }
@@ -224,9 +223,12 @@ int Rays(int argc, char** argv) {
 }  // namespace
 
 int CmdCalib(int argc, char** argv) {
-  return RunSubCommand(
-      "ballvision calib", kUsage, argc, argv,
-      {{"show", ShowFile}, {"to-blob", Convert}, {"to-json", Convert}, {"set", Set}, {"rays", Rays}});
+  return RunSubCommand("ballvision calib", kUsage, argc, argv,
+                       {{"show", ShowFile},
+                        {"to-blob", Convert},
+                        {"to-json", Convert},
+                        {"set", Set},
+                        {"rays", Rays}});
 }
 
 }  // namespace bv::cli
