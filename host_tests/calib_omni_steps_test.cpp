@@ -168,6 +168,51 @@ TEST(CalibOmniSteps, ImageAngleFollowsTheBearings) {
   EXPECT_NEAR(AngleDiff(fit.offset_rad, kOffset), 0, 0.2 * kPi / 180);
 }
 
+// A tilted mirror turns image directions by a small periodic amount: the strip is drawn at
+// phi = sign * bearing + offset + h(phi) and the refinement must find h's four coefficients.
+TEST(CalibOmniSteps, AzimuthHarmonicsOfATiltedMirror) {
+  const double h[4] = {0.005, -0.004, 0.002, 0.001};
+  const auto turn = [&h](double phi) {
+    return h[0] * std::cos(phi) + h[1] * std::sin(phi) + h[2] * std::cos(2 * phi) +
+           h[3] * std::sin(2 * phi);
+  };
+  Carpet carpet = TestCarpet();
+  std::vector<Frame> frames;
+  constexpr int kFrames = 72;
+  for (int i = 0; i < kFrames; ++i) {
+    const double bearing = i * 2 * kPi / kFrames;
+    carpet.azimuth_rad[i] = bearing;
+    const double phi0 = kSign * bearing + kOffset;
+    double phi = phi0;
+    for (int it = 0; it < 4; ++it) phi = phi0 + turn(phi);
+    frames.push_back(Render(i, phi, carpet));
+  }
+  const RimFit rim{kCu, kCv, kRimPx};
+  AngleFit fit;
+  std::string error;
+  ASSERT_TRUE(FitImageAngle(frames, carpet, "carpet.json", rim, fit, error)) << error;
+  const AngleRefinement ref = RefineAngleOffset(frames, carpet, 4, rim, fit);
+  ASSERT_TRUE(ref.harmonics) << ref.fans << " fans, gap " << ref.max_gap_rad;
+  for (int k = 0; k < 4; ++k) EXPECT_NEAR(fit.harmonics_rad[k], h[k], 0.0008) << k;
+  EXPECT_NEAR(AngleDiff(fit.offset_rad, kOffset), 0, 0.0008);
+  EXPECT_LT(ref.rms_after_rad, 0.5 * ref.rms_before_rad);
+  // Twelve directions 30 degrees apart determine them (zero here: no tilt drawn).
+  Carpet twelve = TestCarpet();
+  const std::vector<Frame> run12 = CarpetRun(twelve);
+  AngleFit fit12;
+  ASSERT_TRUE(FitImageAngle(run12, twelve, "carpet.json", rim, fit12, error)) << error;
+  ASSERT_TRUE(RefineAngleOffset(run12, twelve, 4, rim, fit12).harmonics);
+  for (double x : fit12.harmonics_rad) EXPECT_NEAR(x, 0.0, 0.0005);
+  // Half a turn leaves a gap of over 45 degrees: harmonics there would be guesses; offset only.
+  std::vector<Frame> half(frames.begin(), frames.begin() + kFrames / 2);
+  AngleFit fit_half;
+  ASSERT_TRUE(FitImageAngle(half, carpet, "carpet.json", rim, fit_half, error)) << error;
+  const AngleRefinement ref_half = RefineAngleOffset(half, carpet, 4, rim, fit_half);
+  EXPECT_TRUE(ref_half.applied);
+  EXPECT_FALSE(ref_half.harmonics) << ref_half.max_gap_rad;
+  for (double x : fit_half.harmonics_rad) EXPECT_EQ(x, 0.0);
+}
+
 TEST(CalibOmniSteps, ImageAngleErrors) {
   Carpet carpet = TestCarpet();
   std::vector<Frame> frames = CarpetRun(carpet);

@@ -162,9 +162,10 @@ TEST(CalibrationBlob, FieldRoundTrip) {
 // the MSL field.
 TEST(CalibrationBlob, Version1BlobLoadsWithTheMslField) {
   RigCalibration c = Example();
+  c.omni.azimuth_harmonics_rad[1] = 0.004f;
   std::vector<uint8_t> b = Serialize(c);
-  constexpr size_t kFieldSectionBytes = 4 + 15 * 4;
-  b.resize(b.size() - kFieldSectionBytes);
+  constexpr size_t kFieldSectionBytes = 4 + 15 * 4, kAzimuthSectionBytes = 4 + 4 * 4;
+  b.resize(b.size() - kFieldSectionBytes - kAzimuthSectionBytes);
   const uint16_t v1 = 1;
   const uint32_t len = static_cast<uint32_t>(b.size() - kBlobHeaderBytes);
   const uint32_t crc = Crc32(std::span<const uint8_t>(b.data() + kBlobHeaderBytes, len));
@@ -178,6 +179,7 @@ TEST(CalibrationBlob, Version1BlobLoadsWithTheMslField) {
   EXPECT_EQ(back.omni.support_px[44][11], c.omni.support_px[44][11]);
   EXPECT_EQ(back.field.length_m, FieldConfig{}.length_m);
   EXPECT_EQ(back.field.goal_width_m, FieldConfig{}.goal_width_m);
+  EXPECT_EQ(back.omni.azimuth_harmonics_rad[1], 0.0f);
   // The same payload labelled version 2 lacks its field section.
   const uint16_t v2 = 2;
   std::memcpy(b.data() + 6, &v2, 2);
@@ -188,9 +190,48 @@ TEST(CalibrationBlob, Version1BlobLoadsWithTheMslField) {
   EXPECT_EQ(ParseCalibration(b, back).code(), StatusCode::kUnimplemented);
 }
 
+// A version-2 blob (no azimuth harmonics) loads with none; the harmonics round-trip in version 3
+// and are refused by name when out of range.
+TEST(CalibrationBlob, AzimuthHarmonicsVersion2AndRange) {
+  RigCalibration c = Example();
+  const float h[4] = {-0.0047f, -0.0052f, 0.0001f, 0.0002f};
+  for (int k = 0; k < 4; ++k) c.omni.azimuth_harmonics_rad[k] = h[k];
+  std::vector<uint8_t> b = Serialize(c);
+  RigCalibration back;
+  ASSERT_TRUE(ParseCalibration(b, back).ok());
+  for (int k = 0; k < 4; ++k) EXPECT_EQ(back.omni.azimuth_harmonics_rad[k], h[k]);
+  EXPECT_TRUE(Equal(back, c));
+
+  b.resize(b.size() - (4 + 4 * 4));
+  const uint16_t v2 = 2;
+  const uint32_t len = static_cast<uint32_t>(b.size() - kBlobHeaderBytes);
+  const uint32_t crc = Crc32(std::span<const uint8_t>(b.data() + kBlobHeaderBytes, len));
+  std::memcpy(b.data() + 6, &v2, 2);
+  std::memcpy(b.data() + 8, &len, 4);
+  std::memcpy(b.data() + 12, &crc, 4);
+  ASSERT_TRUE(ParseCalibration(b, back).ok());
+  for (float x : back.omni.azimuth_harmonics_rad) EXPECT_EQ(x, 0.0f);
+  EXPECT_EQ(back.field.length_m, c.field.length_m);
+
+  const size_t payload = Serialize(Example()).size() - kBlobHeaderBytes;
+  const size_t azim = payload - 4 * 4;
+  EXPECT_TRUE(ParseWithPayloadEdit(azim, 0.05f).ok());
+  for (float bad : {0.2f, -0.11f, NAN}) {
+    const Status st = ParseWithPayloadEdit(azim + 8, bad);
+    EXPECT_EQ(st.code(), StatusCode::kInvalidArgument) << bad;
+    EXPECT_NE(std::strstr(st.message(), "azimuth harmonic"), nullptr) << st.message();
+  }
+  const Status tag = ParseWithPayloadEdit(azim - 4, 1.0f);
+  EXPECT_EQ(tag.code(), StatusCode::kDataLoss);
+  EXPECT_NE(std::strstr(tag.message(), "azimuth tag"), nullptr) << tag.message();
+  c.omni.azimuth_harmonics_rad[2] = 0.3f;
+  std::vector<uint8_t> out(kCalibrationBlobMaxBytes);
+  EXPECT_EQ(SerializeCalibration(c, out).status().code(), StatusCode::kInvalidArgument);
+}
+
 TEST(CalibrationBlob, CorruptFieldValuesAreRefusedByName) {
   const size_t payload = Serialize(Example()).size() - kBlobHeaderBytes;
-  const size_t field = payload - 15 * 4;  // length_m, width_m, line_width_m, ...
+  const size_t field = payload - (4 + 4 * 4) - 15 * 4;  // length_m, width_m, line_width_m, ...
   EXPECT_TRUE(ParseWithPayloadEdit(field, 16.0f).ok());
   const Status nan = ParseWithPayloadEdit(field, NAN);
   EXPECT_EQ(nan.code(), StatusCode::kInvalidArgument);
@@ -222,7 +263,7 @@ TEST(CalibrationFile, FieldSectionIsReadStrictly) {
   ASSERT_TRUE(cli::SaveCalibrationJson(dir + "/f.json", c, error)) << error;
   nlohmann::json j;
   ASSERT_TRUE(cli::ReadJsonFile(dir + "/f.json", j, error)) << error;
-  EXPECT_EQ(j["version"], 2);
+  EXPECT_EQ(j["version"], kCalibrationBlobVersion);
   EXPECT_FLOAT_EQ(j["field"]["length"].get<float>(), 14.0f);
   RigCalibration r;
   ASSERT_TRUE(cli::CalibrationFromJson(j, r, error, "f.json")) << error;

@@ -105,8 +105,8 @@ class CalibrationJson(Base):
             self.assertIn("expected an integer in [0, 4294967295]", r.stderr)
 
     def test_unknown_version_format_model(self):
-        cases = [(lambda d: d.__setitem__("version", 3), "version: got 3 (integer), expected "
-                  "an integer in [1, 2]"),
+        cases = [(lambda d: d.__setitem__("version", 4), "version: got 4 (integer), expected "
+                  "an integer in [1, 3]"),
                  (lambda d: d.__setitem__("field", {"length": "18"}),
                   'field.length: got "18" (string), expected a number in [0.5, 40.0]'),
                  (lambda d: d.__setitem__("field", {"goal_area_width": 7.0}),

@@ -48,7 +48,16 @@ struct OmniCalibration {
   // calibration from the known carpet bearing; the reference rig's image is mirror-reversed).
   int8_t image_angle_sign = 1;  // +1 or -1
   float image_angle_offset_rad = 0;
+  // A tilted mirror turns the image angle of a direction by a small periodic amount (about 7 mrad
+  // on the reference rig's 1 degree tilt), which one offset cannot hold: the image angle is
+  // phi = sign * theta + offset + h(phi), h(phi) = a1 cos phi + b1 sin phi + a2 cos 2phi +
+  // b2 sin 2phi, fitted by the calibration from the carpet's centre line in every direction.
+  // All zero in blobs before version 3.
+  float azimuth_harmonics_rad[4] = {};  // a1, b1, a2, b2; each within +-0.1 rad
 };
+
+/// h(phi) of OmniCalibration::azimuth_harmonics_rad.
+float OmniAzimuthCorrection(const OmniCalibration& cal, float phi);
 
 /// Sector flag bits.
 inline constexpr uint8_t kOmniSectorInterpolated = 1u << 0;
@@ -81,8 +90,8 @@ Status OmniGroundToPixel(const OmniCalibration& cal, float x_m, float y_m, float
 Result<Ray> OmniPixelToRay(const OmniCalibration& cal, float u_px, float v_px);
 /// The viewing ray of any pixel the mirror maps: OmniPixelToRay within the distance map; beyond it
 /// (a raised ball far away, up to ~10 degrees above the horizon) the elevation continued by a
-/// central-catadioptric fit r = k sin(a) / (xi + cos(a)) through the map's last 25 px in that
-/// direction. kOutOfRange further out.
+/// central-catadioptric fit r = k sin(a) / (xi + cos(a)) to the map's support vectors within 20
+/// degrees of the horizon in that direction. kOutOfRange further out.
 Result<Ray> OmniPixelToRayExtended(const OmniCalibration& cal, float u_px, float v_px);
 /// Robot-frame 3D point -> image point: the ground point where the viewpoint ray through the
 /// point meets the floor, projected. kOutOfRange if the point is at or above the viewpoint.
@@ -90,8 +99,9 @@ Status OmniProject(const OmniCalibration& cal, const Eigen::Vector3f& p_robot, f
                    float& v_px);
 
 // --- the device blob (BlobKind::kCalibration, see core/common/blob.h) ---
-// Version 2 added the field section; version 1 blobs still load, with the MSL field.
-inline constexpr uint16_t kCalibrationBlobVersion = 2;
+// Version 2 added the field section, version 3 the omni azimuth harmonics; older blobs still
+// load (the MSL field, no harmonics).
+inline constexpr uint16_t kCalibrationBlobVersion = 3;
 /// Upper bound of a serialised calibration blob, header included.
 inline constexpr size_t kCalibrationBlobMaxBytes = 4096;
 Result<size_t> SerializeCalibration(const RigCalibration& cal, std::span<uint8_t> out);

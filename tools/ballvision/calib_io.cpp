@@ -96,7 +96,9 @@ bool OmniScalarsFromJson(StrictObject& r, OmniCalibration& o) {
          r.Float("viewpoint_z_m", o.viewpoint_z_m, v ? 0.01 : -kBig, v ? 10 : kBig) &&
          r.Float("image_angle_offset_rad", o.image_angle_offset_rad, -4 * M_PI, 4 * M_PI) &&
          r.FloatArray("edge_ground_m", o.edge_ground_m, OmniCalibration::kEdges, v ? 0 : -kBig,
-                      v ? 100 : kBig);
+                      v ? 100 : kBig) &&
+         r.FloatArray("azimuth_harmonics_rad", o.azimuth_harmonics_rad, 4, -0.1, 0.1,
+                      /*required=*/false);
 }
 
 bool OmniTablesFromJson(StrictObject& r, const std::string& file, OmniCalibration& o) {
@@ -233,6 +235,8 @@ json OmniToJson(const OmniCalibration& o) {
   j["viewpoint_z_m"] = o.viewpoint_z_m;
   j["image_angle_sign"] = static_cast<int>(o.image_angle_sign);
   j["image_angle_offset_rad"] = o.image_angle_offset_rad;
+  j["azimuth_harmonics_rad"] =
+      std::vector<float>(o.azimuth_harmonics_rad, o.azimuth_harmonics_rad + 4);
   j["sector_deg"] = 360.0 / OmniCalibration::kDirections;
   j["edge_ground_m"] =
       std::vector<float>(o.edge_ground_m, o.edge_ground_m + OmniCalibration::kEdges);

@@ -6,7 +6,8 @@
 //    "persp": {"valid", "width_px", "height_px", "fx", "fy", "cx", "cy", "skew", "k1", "k2",
 //              "rms_px", "R_robot_cam" (3x3 rows), "t_robot_cam" [x,y,z], ...report keys},
 //    "omni":  {"valid", "center_u", "center_v", "viewpoint_z_m", "image_angle_sign",
-//              "image_angle_offset_rad", "sector_deg", "edge_ground_m" [12],
+//              "image_angle_offset_rad", "azimuth_harmonics_rad" [4] (optional, zeros),
+//              "sector_deg", "edge_ground_m" [12],
 //              "support_px" [45][12], "sector_flags" [45], ...report keys}}
 #include <cstdint>
 #include <string>

@@ -108,6 +108,17 @@ int CalibrateOmni(int argc, char** argv) {
     std::printf("angle offset refined by %+.3f deg from the strip sides (%zu fans): %+.3f deg\n",
                 refined.correction_rad * 180 / kPi, refined.fans, angle.offset_rad * 180 / kPi);
   }
+  if (refined.harmonics) {
+    std::printf(
+        "azimuth harmonics (mirror tilt) a1 %+.2f b1 %+.2f a2 %+.2f b2 %+.2f mrad: fan residual "
+        "rms %.2f -> %.2f mrad (%zu outliers)\n",
+        angle.harmonics_rad[0] * 1e3, angle.harmonics_rad[1] * 1e3, angle.harmonics_rad[2] * 1e3,
+        angle.harmonics_rad[3] * 1e3, refined.rms_before_rad * 1e3, refined.rms_after_rad * 1e3,
+        refined.harmonic_outliers);
+  } else if (refined.applied) {
+    std::printf("azimuth harmonics not fitted: %zu fans, largest direction gap %.0f deg\n",
+                refined.fans, refined.max_gap_rad * 180 / kPi);
+  }
 
   const RawSamples raw = CollectSamples(frames, carpet, anchor, rim, angle, a.f_o);
   EdgeChoice edges;
@@ -128,6 +139,9 @@ int CalibrateOmni(int argc, char** argv) {
   cal.viewpoint_z_m = static_cast<float>(a.f_o);
   cal.image_angle_sign = static_cast<int8_t>(angle.sign);
   cal.image_angle_offset_rad = static_cast<float>(angle.offset_rad);
+  for (int k = 0; k < 4; ++k) {
+    cal.azimuth_harmonics_rad[k] = static_cast<float>(angle.harmonics_rad[k]);
+  }
   for (int k = 0; k < kEdges; ++k) cal.edge_ground_m[k] = static_cast<float>(edges.edge_m[k]);
 
   SectorFit sectors = FitSectors(edges.samples, edges.first, edges.edge_m);

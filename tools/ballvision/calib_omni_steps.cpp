@@ -344,7 +344,7 @@ AngleRefinement RefineAngleOffset(const std::vector<Frame>& frames, const Carpet
                                   int anchor_patch, const RimFit& rim, AngleFit& fit) {
   constexpr int kHalfFan = 80;  // rays of 0.25°: ±20°
   const double r_min = 20, r_max = rim.radius - 3;
-  std::vector<double> corr;
+  std::vector<double> corr, fan_phi;  // per fan: residual, image angle of the centre line
   for (size_t f = 0; f < frames.size(); ++f) {
     const double phi0 = fit.sign * fit.theta_rad[f] + fit.offset_rad;
     std::map<int, std::pair<int, int>> fan;  // carpet edge -> (first ray, last ray)
@@ -364,16 +364,76 @@ AngleRefinement RefineAngleOffset(const std::vector<Frame>& frames, const Carpet
       if (carpet.edges_m[m] < 1.8 || ext.first <= -kHalfFan || ext.second >= kHalfFan) continue;
       if (ext.second - ext.first < 4) continue;  // a few stray rays, not the strip
       corr.push_back(0.5 * (ext.first + ext.second) * 0.25 * kPi / 180);
+      fan_phi.push_back(Wrap2Pi(phi0 + corr.back()));
     }
   }
   AngleRefinement out;
   out.fans = corr.size();
-  if (corr.size() >= 20) {
-    out.applied = true;
-    out.correction_rad = Median(corr);
-    fit.offset_rad = WrapPi(fit.offset_rad + out.correction_rad);
+  if (corr.size() < 20) return out;
+  out.applied = true;
+  out.correction_rad = Median(corr);
+  std::vector<double> dirs = fan_phi;
+  std::sort(dirs.begin(), dirs.end());
+  out.max_gap_rad = dirs.front() + 2 * kPi - dirs.back();
+  for (size_t i = 1; i < dirs.size(); ++i)
+    out.max_gap_rad = std::max(out.max_gap_rad, dirs[i] - dirs[i - 1]);
+  double ss = 0;
+  for (double c : corr) ss += (c - out.correction_rad) * (c - out.correction_rad);
+  out.rms_before_rad = out.rms_after_rad = std::sqrt(ss / corr.size());
+  if (corr.size() >= 60 && out.max_gap_rad <= 45 * kPi / 180) {
+    // corr = c0 + a1 cos + b1 sin + a2 cos 2 + b2 sin 2 of the fan's image angle.
+    std::vector<bool> use(corr.size(), true);
+    Eigen::Matrix<double, 5, 1> x = Eigen::Matrix<double, 5, 1>::Zero();
+    for (int pass = 0; pass < 2; ++pass) {
+      Eigen::Matrix<double, 5, 5> ata = Eigen::Matrix<double, 5, 5>::Zero();
+      Eigen::Matrix<double, 5, 1> atb = Eigen::Matrix<double, 5, 1>::Zero();
+      for (size_t i = 0; i < corr.size(); ++i) {
+        if (!use[i]) continue;
+        const double p = fan_phi[i];
+        Eigen::Matrix<double, 5, 1> row;
+        row << 1, std::cos(p), std::sin(p), std::cos(2 * p), std::sin(2 * p);
+        ata += row * row.transpose();
+        atb += row * corr[i];
+      }
+      x = ata.ldlt().solve(atb);
+      std::vector<double> res(corr.size());
+      for (size_t i = 0; i < corr.size(); ++i) {
+        const double p = fan_phi[i];
+        res[i] = corr[i] - (x(0) + x(1) * std::cos(p) + x(2) * std::sin(p) +
+                            x(3) * std::cos(2 * p) + x(4) * std::sin(2 * p));
+      }
+      std::vector<double> abs_res;
+      for (double r : res) abs_res.push_back(std::fabs(r));
+      const double sigma = std::max(1.4826 * Median(abs_res), 1e-3);
+      out.harmonic_outliers = 0;
+      ss = 0;
+      size_t n = 0;
+      for (size_t i = 0; i < corr.size(); ++i) {
+        use[i] = std::fabs(res[i]) <= 3 * sigma;
+        out.harmonic_outliers += use[i] ? 0 : 1;
+        if (use[i]) {
+          ss += res[i] * res[i];
+          ++n;
+        }
+      }
+      out.rms_after_rad = n > 0 ? std::sqrt(ss / n) : 0;
+    }
+    bool sane = x.allFinite();
+    for (int k = 1; k < 5; ++k) sane = sane && std::fabs(x(k)) <= 0.1;
+    if (sane) {
+      out.harmonics = true;
+      out.correction_rad = x(0);
+      for (int k = 0; k < 4; ++k) fit.harmonics_rad[k] = x(k + 1);
+    }
   }
+  fit.offset_rad = WrapPi(fit.offset_rad + out.correction_rad);
   return out;
+}
+
+double AzimuthCorrection(const AngleFit& fit, double phi) {
+  const double* h = fit.harmonics_rad;
+  return h[0] * std::cos(phi) + h[1] * std::sin(phi) + h[2] * std::cos(2 * phi) +
+         h[3] * std::sin(2 * phi);
 }
 
 RawSamples CollectSamples(const std::vector<Frame>& frames, const Carpet& carpet, int anchor_patch,
@@ -387,7 +447,8 @@ RawSamples CollectSamples(const std::vector<Frame>& frames, const Carpet& carpet
     const double phi0 = sign * fit.theta_rad[f] + offset;
     for (int j = -12; j <= 12; ++j) {
       const double phi = Wrap2Pi(phi0 + j * 0.5 * kPi / 180);
-      const double delta = WrapPi(sign * (phi - offset) - fit.theta_rad[f]);
+      const double delta =
+          WrapPi(sign * (phi - offset - AzimuthCorrection(fit, phi)) - fit.theta_rad[f]);
       ++out.rays;
       const auto tr = ScanRay(frames[f].bgr, rim.cu, rim.cv, phi, r_min, r_max);
       const auto numbered = NumberTransitions(tr, carpet, anchor_patch);

@@ -74,9 +74,12 @@ bool FindCentre(const std::vector<Frame>& frames, RimFit& rim, std::string& erro
 struct AngleFit {
   int sign = 1;
   double offset_rad = 0;
+  double harmonics_rad[4] = {};   // OmniCalibration::azimuth_harmonics_rad (RefineAngleOffset)
   double consistency = -1;        // mean resultant length of (image angle - sign * bearing)
   std::vector<double> theta_rad;  // per frame: the carpet bearing
 };
+/// OmniAzimuthCorrection of the fit so far.
+double AzimuthCorrection(const AngleFit& fit, double phi);
 /// Fails when a frame has no bearing in the carpet description (`carpet_path`, for the
 /// message), or consistency < 0.9.
 bool FitImageAngle(const std::vector<Frame>& frames, const Carpet& carpet,
@@ -86,9 +89,16 @@ struct AngleRefinement {
   bool applied = false;  // fewer than 20 fans leave the offset as it was
   size_t fans = 0;
   double correction_rad = 0;
+  bool harmonics = false;        // fitted (>= 60 fans, no direction gap over 45 degrees)
+  size_t harmonic_outliers = 0;  // fans left out of the harmonic fit (> 3 robust sigma)
+  double rms_before_rad = 0;     // fan residual rms with the offset alone
+  double rms_after_rad = 0;      // ... and with the harmonics
+  double max_gap_rad = 0;        // largest gap between the fans' directions
 };
 /// Seen from the centre, the strip's two sides are symmetric about its centre line: per frame
 /// and edge (>= 1.8 m) the middle of the fan of rays that see that edge is the centre line.
+/// The fans' residuals against the bearings give the offset (their median) and, when they cover
+/// every direction, the azimuth harmonics (least squares, refitted without 3-sigma outliers).
 AngleRefinement RefineAngleOffset(const std::vector<Frame>& frames, const Carpet& carpet,
                                   int anchor_patch, const RimFit& rim, AngleFit& fit);
 

@@ -41,7 +41,9 @@ def pixel_to_ground(o, support, u, v):
     q = (r <= r0) & (a > 0) & (a + 2 * b * r0 > 0)
     d[q] = a[q] * r[q] + b[q] * r[q] ** 2
     d = fo * np.tan(d)
-    theta = o.get("image_angle_sign", 1) * (phi - o.get("image_angle_offset_rad", 0.0))
+    h1c, h1s, h2c, h2s = o.get("azimuth_harmonics_rad", [0.0] * 4)  # mirror tilt (blob v3)
+    turn = h1c * np.cos(phi) + h1s * np.sin(phi) + h2c * np.cos(2 * phi) + h2s * np.sin(2 * phi)
+    theta = o.get("image_angle_sign", 1) * (phi - o.get("image_angle_offset_rad", 0.0) - turn)
     return d * np.cos(theta), d * np.sin(theta)
 
 
