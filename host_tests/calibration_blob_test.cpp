@@ -158,6 +158,16 @@ TEST(CalibrationBlob, FieldRoundTrip) {
   EXPECT_TRUE(Equal(back, c));
 }
 
+// An older blob: the newer sections cut off the payload, the header relabelled and re-checksummed.
+void TruncateAndLabel(std::vector<uint8_t>& b, size_t cut_bytes, uint16_t version) {
+  b.resize(b.size() - cut_bytes);
+  const uint32_t len = static_cast<uint32_t>(b.size() - kBlobHeaderBytes);
+  const uint32_t crc = Crc32(std::span<const uint8_t>(b.data() + kBlobHeaderBytes, len));
+  std::memcpy(b.data() + 6, &version, 2);
+  std::memcpy(b.data() + 8, &len, 4);
+  std::memcpy(b.data() + 12, &crc, 4);
+}
+
 // A version-1 blob (no field section, as stored by older firmware and tools) still loads, with
 // the MSL field.
 TEST(CalibrationBlob, Version1BlobLoadsWithTheMslField) {
@@ -165,13 +175,7 @@ TEST(CalibrationBlob, Version1BlobLoadsWithTheMslField) {
   c.omni.azimuth_harmonics_rad[1] = 0.004f;
   std::vector<uint8_t> b = Serialize(c);
   constexpr size_t kFieldSectionBytes = 4 + 15 * 4, kAzimuthSectionBytes = 4 + 4 * 4;
-  b.resize(b.size() - kFieldSectionBytes - kAzimuthSectionBytes);
-  const uint16_t v1 = 1;
-  const uint32_t len = static_cast<uint32_t>(b.size() - kBlobHeaderBytes);
-  const uint32_t crc = Crc32(std::span<const uint8_t>(b.data() + kBlobHeaderBytes, len));
-  std::memcpy(b.data() + 6, &v1, 2);
-  std::memcpy(b.data() + 8, &len, 4);
-  std::memcpy(b.data() + 12, &crc, 4);
+  TruncateAndLabel(b, kFieldSectionBytes + kAzimuthSectionBytes, 1);
   RigCalibration back;
   back.field.length_m = 1.0f;  // overwritten with the default
   const Status st = ParseCalibration(b, back);
@@ -202,13 +206,7 @@ TEST(CalibrationBlob, AzimuthHarmonicsVersion2AndRange) {
   for (int k = 0; k < 4; ++k) EXPECT_EQ(back.omni.azimuth_harmonics_rad[k], h[k]);
   EXPECT_TRUE(Equal(back, c));
 
-  b.resize(b.size() - (4 + 4 * 4));
-  const uint16_t v2 = 2;
-  const uint32_t len = static_cast<uint32_t>(b.size() - kBlobHeaderBytes);
-  const uint32_t crc = Crc32(std::span<const uint8_t>(b.data() + kBlobHeaderBytes, len));
-  std::memcpy(b.data() + 6, &v2, 2);
-  std::memcpy(b.data() + 8, &len, 4);
-  std::memcpy(b.data() + 12, &crc, 4);
+  TruncateAndLabel(b, 4 + 4 * 4, 2);
   ASSERT_TRUE(ParseCalibration(b, back).ok());
   for (float x : back.omni.azimuth_harmonics_rad) EXPECT_EQ(x, 0.0f);
   EXPECT_EQ(back.field.length_m, c.field.length_m);
