@@ -479,6 +479,29 @@ TEST(BallFilter, OneOmniRayOfAStillBallIsOnTheFloorAndFlaggedWhenItCannotBe) {
   EXPECT_EQ(s.mode, BallMode::kRolling);
 }
 
+TEST(BallFilter, ARaisedStillSeenByBothCamerasIsNotPutOnTheFloor) {
+  // A ball 6-8 cm above the floor at 5.5 m is within the start's distance-grown floor tolerance
+  // (5 cm + 1 % of the distance), but two nearly noise-free rays fix its height: a first frame
+  // on its own (a still) must keep it there, not slide it along the rays onto the floor (1.2 m
+  // further for a 21 cm ball at 5 m on a render); a floor ball stays on the floor.
+  for (const float z : {kR + 0.06f, kR + 0.08f}) {
+    BallFilter f(Config());
+    const Eigen::Vector3f p(-2.3f, 5.0f, z);
+    f.Update(Observe(p, FrameUs(0), kBoth, 0, 0.1f));
+    BallState s;
+    f.FillState(FrameUs(0), 0, s);
+    ASSERT_TRUE(s.found);
+    EXPECT_LT((Pos(s) - p).norm(), 0.1f) << z;  // range 1-sigma ~4 cm here; the floor: 0.65 m
+  }
+  BallFilter g(Config());
+  const Eigen::Vector3f q(-2.3f, 5.0f, kR);
+  g.Update(Observe(q, FrameUs(0), kBoth, 0, 0.1f));
+  BallState s;
+  g.FillState(FrameUs(0), 0, s);
+  EXPECT_LT((Pos(s) - q).norm(), 0.05f);
+  EXPECT_EQ(s.mode, BallMode::kRolling);
+}
+
 TEST(BallFilter, NoTrackMeansNotFound) {
   BallFilter f;
   BallState s;

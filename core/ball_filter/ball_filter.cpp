@@ -28,6 +28,7 @@ constexpr int kRestFrames = 4;    // frames that must agree with a ball at rest
 constexpr float kUnobservableGateRad = 0.15f;  // direction gate while the range is unknown
 constexpr float kUnknownDepthM = 4.f;          // where a lone ray above the floor's horizon starts
 constexpr float kAmbiguousChi2 = 4.f;  // two flights this close in chi^2 but apart: ambiguous
+constexpr float kFloorChi2 = 9.f;      // the floor must not cost more than 3 sigma (1 dof: height)
 
 float Seconds(uint64_t a_us, uint64_t b_us) {  // a - b in seconds, signed
   return a_us >= b_us ? static_cast<float>(a_us - b_us) * 1e-6f
@@ -392,6 +393,18 @@ void BallFilter::StartTrack(const BallObservation& obs) {
   Vec6 nominal = Vec6::Zero();
   for (int j = 0; j < 3; ++j) nominal(j) = p0(j);
   fit_ = Solve(seg_, nominal, UINT64_MAX, kColdIterations);
+  // Two rays fix the height: a start "near the floor" by the distance-grown tolerance (a 21 cm
+  // ball at 5 m passes) is on the floor only if the floor explains the rays about as well as a
+  // free point. Else the floor fit slides the ball along the rays (1.2 m at 5 m on a render).
+  if (fit_.ok && seg_.motion == Motion::kRolling && obs.n_rays == 2) {
+    Segment air = seg_;
+    air.motion = Motion::kAir;
+    const Fit free = Solve(air, nominal, UINT64_MAX, kColdIterations);
+    if (free.ok && fit_.chi2 - free.chi2 > kFloorChi2) {
+      seg_ = air;
+      fit_ = free;
+    }
+  }
   if (!fit_.ok) tracking_ = false;
 }
 
