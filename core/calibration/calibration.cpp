@@ -132,9 +132,6 @@ bool InnerQuadratic(const OmniCalibration& cal, const float (&sv)[OmniCalibratio
   return a > 0 && a + 2 * b * r0 > 0;
 }
 
-}  // namespace
-
-namespace {
 // h of the direction (cos phi, sin phi): no trigonometry where the pixel gives the direction.
 float AzimuthTurn(const OmniCalibration& cal, float c, float s) {
   const float* h = cal.azimuth_harmonics_rad;
@@ -240,10 +237,6 @@ Result<Ray> OmniPixelToRay(const OmniCalibration& cal, float u_px, float v_px) {
   return ray;
 }
 
-namespace {
-constexpr float kOmniFitSpanPx = 25.f;  // map span used to extrapolate beyond its end
-}  // namespace
-
 // Beyond the map the elevation angle, unlike the ground distance, stays smooth up to and past
 // the horizon. The unified central-catadioptric model r = k sin(a) / (xi + cos(a)) (a: angle
 // from the nadir) is fitted by least squares to the map's support vectors in the pixel's
@@ -286,11 +279,11 @@ Result<Ray> OmniPixelToRayExtended(const OmniCalibration& cal, float u_px, float
     return Status(StatusCode::kOutOfRange, "omni ray: too few support vectors near the horizon");
   }
   const float xi = (syy * sxb - sxy * syb) / det;
-  const float k = last * (sxx * syb - sxy * sxb) / det;
+  const float scale = last * (sxx * syb - sxy * sxb) / det;  // the model's k, in pixels
   const auto model = [&](float rr) {
-    const float arg = -rr * xi / std::hypot(rr, k);
-    if (!(k > 0.f) || !(std::fabs(arg) <= 1.f)) return -1.f;
-    return std::acos(arg) - std::atan2(k, rr);
+    const float arg = -rr * xi / std::hypot(rr, scale);
+    if (!(scale > 0.f) || !(std::fabs(arg) <= 1.f)) return -1.f;
+    return std::acos(arg) - std::atan2(scale, rr);
   };
   const float a_last = std::atan(cal.edge_ground_m[kLast] / cal.viewpoint_z_m);
   const float m_last = model(last);
