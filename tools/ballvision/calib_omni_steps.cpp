@@ -340,6 +340,54 @@ bool FitImageAngle(const std::vector<Frame>& frames, const Carpet& carpet,
   return true;
 }
 
+namespace {
+using Vec5 = Eigen::Matrix<double, 5, 1>;
+Vec5 HarmonicBasis(double p) {
+  Vec5 row;
+  row << 1, std::cos(p), std::sin(p), std::cos(2 * p), std::sin(2 * p);
+  return row;
+}
+
+// corr = c0 + a1 cos + b1 sin + a2 cos 2 + b2 sin 2 of the fan's image angle: least squares, then
+// again without the fans beyond 3 robust sigma. False unless finite with harmonics <= 0.1 rad.
+bool FitHarmonics(const std::vector<double>& corr, const std::vector<double>& phi,
+                  AngleRefinement& out, Vec5& x) {
+  std::vector<bool> use(corr.size(), true);
+  for (int pass = 0; pass < 2; ++pass) {
+    Eigen::Matrix<double, 5, 5> ata = Eigen::Matrix<double, 5, 5>::Zero();
+    Vec5 atb = Vec5::Zero();
+    for (size_t i = 0; i < corr.size(); ++i) {
+      if (!use[i]) continue;
+      const Vec5 row = HarmonicBasis(phi[i]);
+      ata += row * row.transpose();
+      atb += row * corr[i];
+    }
+    x = ata.ldlt().solve(atb);
+    std::vector<double> res(corr.size()), abs_res(corr.size());
+    for (size_t i = 0; i < corr.size(); ++i) {
+      res[i] = corr[i] - x.dot(HarmonicBasis(phi[i]));
+      abs_res[i] = std::fabs(res[i]);
+    }
+    const double sigma = std::max(1.4826 * Median(abs_res), 1e-3);
+    out.harmonic_outliers = 0;
+    double ss = 0;
+    size_t n = 0;
+    for (size_t i = 0; i < corr.size(); ++i) {
+      use[i] = abs_res[i] <= 3 * sigma;
+      out.harmonic_outliers += use[i] ? 0 : 1;
+      if (use[i]) {
+        ss += res[i] * res[i];
+        ++n;
+      }
+    }
+    out.rms_after_rad = n > 0 ? std::sqrt(ss / n) : 0;
+  }
+  bool sane = x.allFinite();
+  for (int k = 1; k < 5; ++k) sane = sane && std::fabs(x(k)) <= 0.1;
+  return sane;
+}
+}  // namespace
+
 AngleRefinement RefineAngleOffset(const std::vector<Frame>& frames, const Carpet& carpet,
                                   int anchor_patch, const RimFit& rim, AngleFit& fit) {
   constexpr int kHalfFan = 80;  // rays of 0.25°: ±20°
@@ -380,50 +428,15 @@ AngleRefinement RefineAngleOffset(const std::vector<Frame>& frames, const Carpet
   double ss = 0;
   for (double c : corr) ss += (c - out.correction_rad) * (c - out.correction_rad);
   out.rms_before_rad = out.rms_after_rad = std::sqrt(ss / corr.size());
+  Vec5 x;
   if (corr.size() >= 60 && out.max_gap_rad <= 45 * kPi / 180) {
-    // corr = c0 + a1 cos + b1 sin + a2 cos 2 + b2 sin 2 of the fan's image angle.
-    std::vector<bool> use(corr.size(), true);
-    Eigen::Matrix<double, 5, 1> x = Eigen::Matrix<double, 5, 1>::Zero();
-    for (int pass = 0; pass < 2; ++pass) {
-      Eigen::Matrix<double, 5, 5> ata = Eigen::Matrix<double, 5, 5>::Zero();
-      Eigen::Matrix<double, 5, 1> atb = Eigen::Matrix<double, 5, 1>::Zero();
-      for (size_t i = 0; i < corr.size(); ++i) {
-        if (!use[i]) continue;
-        const double p = fan_phi[i];
-        Eigen::Matrix<double, 5, 1> row;
-        row << 1, std::cos(p), std::sin(p), std::cos(2 * p), std::sin(2 * p);
-        ata += row * row.transpose();
-        atb += row * corr[i];
-      }
-      x = ata.ldlt().solve(atb);
-      std::vector<double> res(corr.size());
-      for (size_t i = 0; i < corr.size(); ++i) {
-        const double p = fan_phi[i];
-        res[i] = corr[i] - (x(0) + x(1) * std::cos(p) + x(2) * std::sin(p) +
-                            x(3) * std::cos(2 * p) + x(4) * std::sin(2 * p));
-      }
-      std::vector<double> abs_res;
-      for (double r : res) abs_res.push_back(std::fabs(r));
-      const double sigma = std::max(1.4826 * Median(abs_res), 1e-3);
-      out.harmonic_outliers = 0;
-      ss = 0;
-      size_t n = 0;
-      for (size_t i = 0; i < corr.size(); ++i) {
-        use[i] = std::fabs(res[i]) <= 3 * sigma;
-        out.harmonic_outliers += use[i] ? 0 : 1;
-        if (use[i]) {
-          ss += res[i] * res[i];
-          ++n;
-        }
-      }
-      out.rms_after_rad = n > 0 ? std::sqrt(ss / n) : 0;
-    }
-    bool sane = x.allFinite();
-    for (int k = 1; k < 5; ++k) sane = sane && std::fabs(x(k)) <= 0.1;
-    if (sane) {
+    if (FitHarmonics(corr, fan_phi, out, x)) {
       out.harmonics = true;
       out.correction_rad = x(0);
       for (int k = 0; k < 4; ++k) fit.harmonics_rad[k] = x(k + 1);
+    } else {
+      out.rms_after_rad = out.rms_before_rad;
+      out.harmonic_outliers = 0;
     }
   }
   fit.offset_rad = WrapPi(fit.offset_rad + out.correction_rad);
@@ -431,9 +444,9 @@ AngleRefinement RefineAngleOffset(const std::vector<Frame>& frames, const Carpet
 }
 
 double AzimuthCorrection(const AngleFit& fit, double phi) {
-  const double* h = fit.harmonics_rad;
-  return h[0] * std::cos(phi) + h[1] * std::sin(phi) + h[2] * std::cos(2 * phi) +
-         h[3] * std::sin(2 * phi);
+  const Vec5 h(0, fit.harmonics_rad[0], fit.harmonics_rad[1], fit.harmonics_rad[2],
+               fit.harmonics_rad[3]);
+  return h.dot(HarmonicBasis(phi));
 }
 
 RawSamples CollectSamples(const std::vector<Frame>& frames, const Carpet& carpet, int anchor_patch,
