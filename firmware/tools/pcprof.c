@@ -1,7 +1,7 @@
 // TCG plugin for QEMU 7.2 (plugin API version 1): instructions executed per guest PC between the
 // first `begin` marker and the last `end` marker (start-up and exit left out), written as
-// "pc count" lines for firmware/tools/pcprof_report.py to add up per function. The plugin API
-// declarations are copied from insncount.c (Debian's QEMU ships no header).
+// "pc count" lines for firmware/tools/pcprof_report.py to add up per function. The plugin API is
+// declared in qemu_plugin_api.h (Debian's QEMU ships no header).
 //   gcc -shared -fPIC -O2 -o libpcprof.so firmware/tools/pcprof.c
 //   qemu-system-arm ... -plugin ./libpcprof.so,out=prof.txt,begin=0xADDR,end=0xADDR -d plugin
 //   python3 firmware/tools/pcprof_report.py prof.txt ELF PAIRS
@@ -11,27 +11,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-typedef uint64_t qemu_plugin_id_t;
-typedef struct qemu_info_t qemu_info_t;
-struct qemu_plugin_tb;
-struct qemu_plugin_insn;
-enum qemu_plugin_cb_flags { QEMU_PLUGIN_CB_NO_REGS, QEMU_PLUGIN_CB_R_REGS, QEMU_PLUGIN_CB_RW_REGS };
-enum qemu_plugin_op { QEMU_PLUGIN_INLINE_ADD_U64 };
-typedef void (*qemu_plugin_vcpu_tb_trans_cb_t)(qemu_plugin_id_t id, struct qemu_plugin_tb* tb);
-typedef void (*qemu_plugin_vcpu_udata_cb_t)(unsigned int vcpu_index, void* userdata);
-typedef void (*qemu_plugin_udata_cb_t)(qemu_plugin_id_t id, void* userdata);
-
-void qemu_plugin_register_vcpu_tb_trans_cb(qemu_plugin_id_t id, qemu_plugin_vcpu_tb_trans_cb_t cb);
-size_t qemu_plugin_tb_n_insns(const struct qemu_plugin_tb* tb);
-struct qemu_plugin_insn* qemu_plugin_tb_get_insn(const struct qemu_plugin_tb* tb, size_t idx);
-uint64_t qemu_plugin_insn_vaddr(const struct qemu_plugin_insn* insn);
-void qemu_plugin_register_vcpu_insn_exec_inline(struct qemu_plugin_insn* insn,
-                                                enum qemu_plugin_op op, void* ptr, uint64_t imm);
-void qemu_plugin_register_vcpu_insn_exec_cb(struct qemu_plugin_insn* insn,
-                                            qemu_plugin_vcpu_udata_cb_t cb,
-                                            enum qemu_plugin_cb_flags flags, void* userdata);
-void qemu_plugin_register_atexit_cb(qemu_plugin_id_t id, qemu_plugin_udata_cb_t cb, void* userdata);
-void qemu_plugin_outs(const char* string);
+#include "qemu_plugin_api.h"
 
 __attribute__((visibility("default"))) int qemu_plugin_version = 1;
 
