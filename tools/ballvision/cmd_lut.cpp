@@ -8,9 +8,12 @@
 #include <string>
 #include <vector>
 
+#include "core/color_lut/color_model.h"
 #include "tools/ballvision/cli_args.h"
 #include "tools/ballvision/commands.h"
+#include "tools/ballvision/lut_teach.h"
 #include "tools/ballvision/lut_train.h"
+#include "tools/ballvision/run_common.h"
 #include "tools/ballvision/safe_write.h"
 #include "tools/ballvision/signals.h"
 
@@ -25,7 +28,12 @@ constexpr char kLutUsage[] =
     "       ballvision lut eval --lut LUT.bin [sources] [--center U,V] [--no-track] [--verbose]\n"
     "                           [--regions]  (every traced region with its shape measures)\n"
     "                           [--annotate DIR]  (debug pictures of every evaluated frame)\n"
+    "       (--lut builtin: the built-in colour model's table)\n"
     "                           [--min-roundness R]  (of a ball region, 0..1)\n"
+    "       ballvision lut teach SEQ --out LUT.bin [--click INDEX:omni|persp:U,V]\n"
+    "                           [--camera omni|persp|both] [--every N] [--center U,V]\n"
+    "                           (fits the ball colour model to the ball across the sequence;\n"
+    "                            without --click the ball must be the moving ball-coloured blob)\n"
     "       ballvision lut show LUT.bin\n"
     "sources (repeatable):\n"
     "  --sim DIR            rendered sequence with truth.csv (ball silhouettes from the truth)\n"
@@ -329,7 +337,11 @@ int Eval(const Args& a) {
     std::fprintf(stderr, "ballvision lut eval: missing --lut\n\n%s", kLutUsage);
     return 2;
   }
-  if (!LoadLut(a.lut, lut)) return 1;
+  if (a.lut == "builtin") {
+    FillRuleLut(lut);
+  } else if (!LoadLut(a.lut, lut)) {
+    return 1;
+  }
   if (a.sims.empty() && a.boxes.empty()) {
     std::fprintf(stderr, "ballvision lut eval: nothing to evaluate (--sim or --boxes)\n");
     return 2;
@@ -348,13 +360,14 @@ int Eval(const Args& a) {
       std::vector<float> sorted = e.errors_px;
       std::sort(sorted.begin(), sorted.end());
       const float median = sorted.empty() ? 0.0f : sorted[sorted.size() / 2];
+      const float p90 = sorted.empty() ? 0.0f : sorted[sorted.size() * 9 / 10];
       std::printf(
           "%s %-5s frames %3d  ball>=4px %3d  recall %5.1f%% (%d)  within1px %5.1f%% of ball "
-          "frames (%d)  median err %.2f px  false %d  missed %d  pixels read %.2f%%  overflows "
-          "%u\n",
+          "frames (%d)  err median %.2f p90 %.2f px  false %d  missed %d  pixels read %.2f%%  "
+          "overflows %u\n",
           s.dir.c_str(), c == 0 ? "omni" : "persp", e.frames, e.ball_frames,
           e.ball_frames ? 100.0 * e.found_on_ball / e.ball_frames : 0.0, e.found_on_ball,
-          e.ball_frames ? 100.0 * e.within_1px / e.ball_frames : 0.0, e.within_1px, median,
+          e.ball_frames ? 100.0 * e.within_1px / e.ball_frames : 0.0, e.within_1px, median, p90,
           e.false_det, e.missed,
           e.frames ? 100.0 * e.pixels_read_sum / e.frames / (kFrameWidth * kFrameHeight) : 0.0,
           e.overflows);
@@ -388,6 +401,105 @@ int Show(const std::string& path) {
   return 0;
 }
 
+int TeachCmd(int argc, char** argv) {
+  std::string seq, out, click, camera = "both";
+  int every = 1;
+  double cu = 314.2, cv = 244.1;
+  ArgParser p("ballvision lut teach", kLutUsage);
+  p.Positional("SEQ", seq)
+      .Text("--out", out)
+      .Required("--out")
+      .Text("--click", click)
+      .Text("--camera", camera)
+      .Int("--every", 1, 1000000, every)
+      .Custom("--center", [&](const std::string& v, std::string& error) {
+        return ArgNumberPair("--center", v, ',', 0, 4096, cu, cv, error);
+      });
+  if (const int rc = p.Parse(argc, argv); rc >= 0) return rc;
+  lut::TeachOptions opt;
+  opt.every = every;
+  if (camera != "omni" && camera != "persp" && camera != "both") {
+    return p.UsageError("--camera: got '" + camera + "', expected omni, persp or both");
+  }
+  opt.cameras[0] = camera != "persp";
+  opt.cameras[1] = camera != "omni";
+  if (!click.empty()) {
+    // INDEX:CAMERA:U,V
+    const size_t a = click.find(':'), b = click.find(':', a == std::string::npos ? a : a + 1);
+    std::string err;
+    int64_t index = 0;
+    double u = 0, v = 0;
+    if (a == std::string::npos || b == std::string::npos ||
+        !ArgIntAs("--click", click.substr(0, a), 0, INT64_MAX, index, err) ||
+        !ArgNumberPair("--click", click.substr(b + 1), ',', 0, 8191, u, v, err)) {
+      return p.UsageError(err.empty() ? "--click: got '" + click + "', expected INDEX:CAMERA:U,V"
+                                      : err);
+    }
+    const std::string cam = click.substr(a + 1, b - a - 1);
+    if (cam != "omni" && cam != "persp") {
+      return p.UsageError("--click: camera '" + cam + "', expected omni or persp");
+    }
+    opt.click = true;
+    opt.click_index = index;
+    opt.click_camera = cam == "omni" ? lut::Camera::kOmni : lut::Camera::kPersp;
+    opt.click_u = static_cast<float>(u);
+    opt.click_v = static_cast<float>(v);
+    if (!opt.cameras[static_cast<int>(opt.click_camera)]) {
+      return p.UsageError("--click names the " + cam + " camera, which --camera leaves out");
+    }
+  }
+  std::string err;
+  if (!CheckOutputPath(out, err)) {
+    std::fprintf(stderr, "ballvision lut teach: %s\n", err.c_str());
+    return 1;
+  }
+  lut::FinderSetup setup;
+  setup.omni = ReferenceOmniScanConfig(static_cast<float>(cu), static_cast<float>(cv));
+  setup.persp = ReferencePerspScanConfig();
+  InstallInterruptHandlers();
+  lut::TeachReport r;
+  if (!lut::TeachSequence(seq, setup, opt, r, err)) {
+    std::fprintf(stderr, "ballvision lut teach: %s; %s not written\n", err.c_str(), out.c_str());
+    return 1;
+  }
+  if (InterruptSignal()) {
+    ReportInterrupt("ballvision lut teach");
+    std::fprintf(stderr, "ballvision lut teach: a partly taught table is not written\n");
+    return 130;
+  }
+  static ColorLut lut;
+  std::vector<uint8_t> blob(kColorLutBlobBytes);
+  if (const Status st = BuildLut(r.model, lut); !st.ok()) {
+    std::fprintf(stderr, "ballvision lut teach: %s\n", st.message());
+    return 1;
+  }
+  const Result<size_t> n = SerializeLut(lut, blob);
+  if (!n.ok() || !WriteFileAtomic(
+                     out, std::string_view(reinterpret_cast<const char*>(blob.data()), *n), err)) {
+    std::fprintf(stderr, "ballvision lut teach: %s\n", n.ok() ? err.c_str() : n.status().message());
+    return 1;
+  }
+  const BallColorModel& m = r.model;
+  std::printf(
+      "taught from %d omni + %d persp frames, %zu ball pixels; centres moved up to %lld px\n"
+      "model: hue %.1f..%.1f deg, relative chroma >= %.2f (>= %.2f from Y %d on) <= %.2f, "
+      "Y >= %d\n"
+      "check on %zu background samples: %.3f %% of field and line pixels taken, %.3f %% of "
+      "all\n"
+      "wrote %s: id 0x%08x\n",
+      r.frames[0], r.frames[1], r.ball_pixels, static_cast<long long>(r.first_moves_px),
+      m.hue_min_deg, m.hue_max_deg, m.chroma_min, m.chroma_min_bright, m.bright_y_end, m.chroma_max,
+      m.y_min, r.background, 100.0 * r.field_taken, 100.0 * r.background_taken, out.c_str(),
+      lut.Id());
+  if (!opt.click && r.first_moves_px < 10) {
+    std::fprintf(stderr,
+                 "ballvision lut teach: warning: the blob learnt from hardly moved (%lld px); if "
+                 "it is not the ball, teach again with --click\n",
+                 static_cast<long long>(r.first_moves_px));
+  }
+  return 0;
+}
+
 }  // namespace
 
 int CmdLut(int argc, char** argv) {
@@ -404,8 +516,9 @@ int CmdLut(int argc, char** argv) {
     if (const int rc = ParseArgs(ac, av, "ballvision lut " + sub, a); rc >= 0) return rc;
     return sub == "train" ? Train(a) : Eval(a);
   };
-  return RunSubCommand("ballvision lut", kLutUsage, argc, argv,
-                       {{"train", train_or_eval}, {"eval", train_or_eval}, {"show", show}});
+  return RunSubCommand(
+      "ballvision lut", kLutUsage, argc, argv,
+      {{"train", train_or_eval}, {"eval", train_or_eval}, {"teach", TeachCmd}, {"show", show}});
 }
 
 }  // namespace bv::cli

@@ -11,6 +11,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "core/color_lut/color_model.h"
+
 #include "hal/host/sequence.h"
 #include "tools/ballvision/annotate_frontend.h"
 #include "tools/ballvision/signals.h"
@@ -157,23 +159,13 @@ int Trainer::Teach(const Image& img, int u0, int v0, ColorClass cls, float toler
   return n;
 }
 
-ColorClass BackgroundRule(uint8_t y, uint8_t u, uint8_t v) {
-  const int du = u - 128, dv = v - 128;
-  const int sat = std::max(std::abs(du), std::abs(dv));
-  if (y < 50 && sat < 24) return ColorClass::kObstacle;
-  if (y >= 150 && sat < 20) return ColorClass::kLine;
-  if (du < -4 && dv < -4 && y >= 20) return ColorClass::kField;  // green: U and V below grey
-  if (sat < 14 && y < 80) return ColorClass::kObstacle;
-  return ColorClass::kUnknown;
-}
-
 ColorLut Trainer::Build() const {
   ColorLut lut;
   const double bt = std::max(1.0, ball_total_), ot = std::max(1.0, other_total_);
   for (uint32_t i = 0; i < ColorLut::kEntries; ++i) {
     uint8_t y, u, v;
     ColorLut::CellCenter(i, y, u, v);
-    lut.Set(i, BackgroundRule(y, u, v));
+    lut.Set(i, BackgroundClass(y, u, v));
     if (ball_[i] >= opt_.min_ball_weight && ball_[i] / bt > opt_.ratio * other_[i] / ot) {
       lut.Set(i, ColorClass::kBall);
     }

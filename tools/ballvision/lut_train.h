@@ -77,9 +77,6 @@ class Trainer {
   std::vector<double> ball_y_hist_ = std::vector<double>(256, 0.0);
 };
 
-/// Rule for the non-ball classes from a cell's centre colour.
-ColorClass BackgroundRule(uint8_t y, uint8_t u, uint8_t v);
-
 // ---- rendered sequences with truth.csv ----
 struct SimTruth {
   int64_t index = 0;

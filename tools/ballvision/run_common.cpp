@@ -10,6 +10,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "core/color_lut/color_model.h"
 #include "hal/host/sequence.h"
 #include "tools/ballvision/calib_io.h"
 #include "tools/ballvision/safe_write.h"
@@ -17,22 +18,8 @@
 namespace bv::cli {
 
 void FillRuleLut(ColorLut& lut) {
-  for (uint32_t i = 0; i < ColorLut::kEntries; ++i) {
-    uint8_t y, u, v;
-    ColorLut::CellCenter(i, y, u, v);
-    const double r = y + 1.402 * (v - 128.0);
-    const double g = y - 0.344136 * (u - 128.0) - 0.714136 * (v - 128.0);
-    const double b = y + 1.772 * (u - 128.0);
-    ColorClass c = ColorClass::kUnknown;
-    if (r > 90 && r - g > 50 && r > 1.5 * g && r > 1.8 * b + 10) {
-      c = ColorClass::kBall;
-    } else if (g > r + 10 && g > b + 10) {
-      c = ColorClass::kField;
-    } else if (y > 190 && std::abs(u - 128) < 20 && std::abs(v - 128) < 20) {
-      c = ColorClass::kLine;
-    }
-    lut.Set(i, c);
-  }
+  // The default model is valid by construction (host_tests check it).
+  BuildLut(BallColorModel{}, lut).IgnoreError();
 }
 
 bool LoadLutOrDefault(const std::string& path, const std::string& calib_path, ColorLut& lut,
@@ -62,9 +49,14 @@ bool LoadLutOrDefault(const std::string& path, const std::string& calib_path, Co
       if (file.empty() && !found.empty()) file = found.front().string();
     }
   }
+  if (file == "builtin") {
+    FillRuleLut(lut);
+    used = "built-in colour model (--lut builtin)";
+    return true;
+  }
   if (file.empty()) {
     FillRuleLut(lut);
-    used = "built-in colour rule (no --lut, no $BV_LUT, no <calib dir>/luts/*.lut)";
+    used = "built-in colour model (no --lut, no $BV_LUT, no <calib dir>/luts/*.lut)";
     return true;
   }
   std::vector<uint8_t> bytes;

@@ -1,0 +1,46 @@
+#pragma once
+// The ball's colour as a shade-invariant model, and the lookup table generated from it.
+//
+// Light that falls unevenly on the ball (sun on one side, shadow on the other) scales a pixel's
+// Y and its chroma (U-128, V-128) by the same factor, so the model is stated in the two
+// quantities that factor leaves alone: the hue angle atan2(V-128, U-128) and the chroma relative
+// to luma, |(U-128, V-128)| / Y (Pixy's brightness-normalised basis, in YUV). Specular light adds
+// white, which lowers the relative chroma of bright pixels: above `bright_y` the chroma floor
+// falls linearly to `chroma_min_bright` at `bright_y_end`. Every bound is a parameter, fitted by
+// teaching (tools/ballvision `lut teach`, the device's teach command); the defaults cover the
+// red-to-orange balls of the league in sun and shade (core/color_lut/README.md: how they were
+// measured). The device never evaluates the model per pixel: BuildLut writes it into the table.
+#include <cstdint>
+
+#include "core/color_lut/color_lut.h"
+#include "core/common/status.h"
+
+namespace bv {
+
+struct BallColorModel {
+  float hue_min_deg = 104.0f;  // atan2(V-128, U-128), counter-clockwise window [min, max]
+  float hue_max_deg = 152.0f;
+  float chroma_min = 0.28f;         // relative chroma floor up to bright_y
+  float chroma_min_bright = 0.16f;  // ... from bright_y_end on (highlights desaturate)
+  float chroma_max = 1.30f;         // above: dark-pixel noise, not a surface colour
+  uint8_t bright_y = 128, bright_y_end = 192;
+  uint8_t y_min = 28, y_max = 255;  // below y_min chroma is mostly sensor noise
+};
+
+/// kInvalidArgument naming the bad field: NaN, hue window empty or wider than 170 degrees, chroma
+/// bounds outside (0, 4] or crossed, Y bounds crossed.
+Status ValidateBallColorModel(const BallColorModel& m);
+
+/// The model evaluated on one pixel (host tools and tests; the device uses the table).
+bool InBallColorModel(const BallColorModel& m, uint8_t y, uint8_t u, uint8_t v);
+
+/// The fixed rule for the non-ball classes (field green, white line, dark obstacle).
+ColorClass BackgroundClass(uint8_t y, uint8_t u, uint8_t v);
+
+/// Writes the whole table: a cell is ball when at least half of 8 colours spread over it are in
+/// the model (so the table's boundary follows the model's, not the cell centres'), else the
+/// background class. The model must be valid (kInvalidArgument, table untouched, otherwise).
+/// Allocation-free: the device runs it at boot when it has no stored table, and after a teach.
+Status BuildLut(const BallColorModel& m, ColorLut& out);
+
+}  // namespace bv

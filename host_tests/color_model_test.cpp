@@ -1,0 +1,126 @@
+// The shade-invariant ball colour model and the table built from it: balls red to orange in sun
+// and shade are ball, the colours around a field are not, bad models are refused.
+#include "core/color_lut/color_model.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <memory>
+
+namespace bv {
+namespace {
+
+struct Yuv {
+  uint8_t y, u, v;
+};
+
+// sRGB (0..255) to YUV as the pipeline's frame loader does (BT.601, full range).
+Yuv FromRgb(double r, double g, double b) {
+  const double y = 0.299 * r + 0.587 * g + 0.114 * b;
+  const auto clamp = [](double x) {
+    return static_cast<uint8_t>(std::clamp(std::lround(x), 0L, 255L));
+  };
+  return {clamp(y), clamp(128 + 0.564 * (b - y)), clamp(128 + 0.713 * (r - y))};
+}
+
+// A surface of linear reflectance (r, g, b) lit by `light`, gamma-encoded as a camera does.
+Yuv Lit(double r, double g, double b, double light) {
+  const auto enc = [&](double x) { return 255.0 * std::pow(std::min(1.0, x * light), 1 / 2.2); };
+  return FromRgb(enc(r), enc(g), enc(b));
+}
+
+std::unique_ptr<ColorLut> DefaultTable() {
+  auto lut = std::make_unique<ColorLut>();
+  EXPECT_TRUE(BuildLut(BallColorModel{}, *lut).ok());
+  return lut;
+}
+
+TEST(ColorModelTest, DefaultModelIsValid) {
+  EXPECT_TRUE(ValidateBallColorModel(BallColorModel{}).ok());
+}
+
+TEST(ColorModelTest, RedToOrangeBallsAreBallFromDeepShadeToSun) {
+  const auto lut = DefaultTable();
+  // Linear reflectances from the league's red to orange balls.
+  const double balls[][3] = {{0.78, 0.06, 0.022}, {0.85, 0.15, 0.02}, {0.80, 0.10, 0.02}};
+  for (const auto& c : balls) {
+    // 0.12: deep shade (Y ~ 45); 1.1: direct sun just short of clipping red.
+    for (double light = 0.12; light <= 1.1; light *= 1.15) {
+      const Yuv p = Lit(c[0], c[1], c[2], light);
+      EXPECT_TRUE(InBallColorModel(BallColorModel{}, p.y, p.u, p.v))
+          << c[0] << "," << c[1] << "," << c[2] << " light " << light << " -> Y " << int{p.y}
+          << " U " << int{p.u} << " V " << int{p.v};
+      EXPECT_EQ(lut->Classify(p.y, p.u, p.v), ColorClass::kBall)
+          << c[0] << "," << c[1] << "," << c[2] << " light " << light;
+    }
+  }
+}
+
+TEST(ColorModelTest, FieldLinesSkinWoodAndGreyAreNotBall) {
+  const auto lut = DefaultTable();
+  struct Case {
+    const char* name;
+    double r, g, b;
+  };
+  const Case others[] = {
+      {"carpet green", 0.05, 0.25, 0.05}, {"white line", 0.8, 0.8, 0.8},
+      {"grey wall", 0.3, 0.3, 0.32},      {"skin", 0.55, 0.35, 0.25},
+      {"light wood", 0.45, 0.28, 0.15},   {"blue shirt", 0.08, 0.10, 0.35},
+      {"yellow", 0.8, 0.7, 0.05},         {"black robot", 0.02, 0.02, 0.02},
+      {"magenta", 0.6, 0.05, 0.5},
+  };
+  for (const Case& c : others) {
+    for (double light = 0.15; light <= 1.2; light *= 1.2) {
+      const Yuv p = Lit(c.r, c.g, c.b, light);
+      EXPECT_NE(lut->Classify(p.y, p.u, p.v), ColorClass::kBall) << c.name << " light " << light;
+    }
+  }
+  const Yuv green = Lit(0.05, 0.25, 0.05, 0.8);
+  EXPECT_EQ(lut->Classify(green.y, green.u, green.v), ColorClass::kField);
+  const Yuv white = Lit(0.8, 0.8, 0.8, 1.0);
+  EXPECT_EQ(lut->Classify(white.y, white.u, white.v), ColorClass::kLine);
+}
+
+TEST(ColorModelTest, TheModelsBoundsAreItsParameters) {
+  // A model narrowed to orange no longer takes red; one widened to yellow takes yellow.
+  BallColorModel orange;
+  orange.hue_min_deg = 125.0f;
+  const Yuv red = Lit(0.78, 0.06, 0.022, 0.5), yellow = Lit(0.8, 0.7, 0.05, 0.5);
+  EXPECT_FALSE(InBallColorModel(orange, red.y, red.u, red.v));
+  BallColorModel wide;
+  wide.hue_max_deg = 175.0f;
+  EXPECT_TRUE(InBallColorModel(wide, yellow.y, yellow.u, yellow.v));
+  EXPECT_FALSE(InBallColorModel(BallColorModel{}, yellow.y, yellow.u, yellow.v));
+  BallColorModel dark_floor;
+  dark_floor.y_min = 80;
+  const Yuv shade = Lit(0.78, 0.06, 0.022, 0.12);
+  EXPECT_TRUE(InBallColorModel(BallColorModel{}, shade.y, shade.u, shade.v));
+  EXPECT_FALSE(InBallColorModel(dark_floor, shade.y, shade.u, shade.v));
+}
+
+TEST(ColorModelTest, InvalidModelsAreRefusedAndLeaveTheTable) {
+  const auto lut = std::make_unique<ColorLut>();
+  lut->Fill(ColorClass::kLine);
+  const uint32_t before = lut->Id();
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  BallColorModel bad[7];
+  bad[0].hue_min_deg = nan;
+  bad[1].hue_max_deg = bad[1].hue_min_deg;  // empty window
+  bad[2].hue_max_deg = bad[2].hue_min_deg + 200.0f;
+  bad[3].chroma_min = 0.0f;
+  bad[4].chroma_max = 0.1f;  // below the floor
+  bad[5].bright_y_end = bad[5].bright_y;
+  bad[6].y_min = 255;
+  for (const BallColorModel& m : bad) {
+    const Status st = BuildLut(m, *lut);
+    EXPECT_EQ(st.code(), StatusCode::kInvalidArgument);
+    EXPECT_NE(std::strstr(st.message(), "colour model"), nullptr) << st.message();
+    EXPECT_EQ(lut->Id(), before);
+  }
+}
+
+}  // namespace
+}  // namespace bv

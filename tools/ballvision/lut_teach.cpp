@@ -1,0 +1,305 @@
+#include "tools/ballvision/lut_teach.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <memory>
+
+#include "core/detect/detect.h"
+#include "core/scanline/scanline.h"
+#include "hal/host/sequence.h"
+#include "tools/ballvision/signals.h"
+
+namespace bv::lut {
+namespace {
+
+constexpr double kRadToDeg = 57.29577951308232;
+constexpr float kGrowHueMarginDeg = 20.0f;  // the grow test is the start window widened by this
+constexpr float kGrowChromaMin = 0.10f;     // ... and this relative chroma floor
+constexpr size_t kMinFitPixels = 200;
+constexpr double kMaxFieldTaken = 0.002;
+
+double HueDeg(const Yuv& p) { return std::atan2(p.v - 128.0, p.u - 128.0) * kRadToDeg; }
+double RelChroma(const Yuv& p) {
+  return std::hypot(p.u - 128.0, p.v - 128.0) / std::max(1.0, static_cast<double>(p.y));
+}
+
+double Percentile(std::vector<double> v, double q) {
+  if (v.empty()) return 0;
+  const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * static_cast<double>(v.size())));
+  std::nth_element(v.begin(), v.begin() + static_cast<ptrdiff_t>(k), v.end());
+  return v[k];
+}
+
+// The relaxed test the ball is grown with: the start model's hue window widened, low chroma floor.
+struct GrowTest {
+  double hue_lo, hue_hi;
+  bool operator()(const Yuv& p) const {
+    if (p.y < 12 || RelChroma(p) < kGrowChromaMin) return false;
+    const double h = HueDeg(p);
+    return h >= hue_lo && h <= hue_hi;
+  }
+};
+
+// Grows the ball from the found centre over the image, inside a disc of twice the found radius.
+// Appends its pixels to `ball`, returns how many; `taken` marks them (for background sampling).
+size_t GrowBall(const YuyvImage& img, const GrowTest& test, float cu, float cv, float radius,
+                std::vector<Yuv>& ball, std::vector<uint8_t>& taken) {
+  const float reach = 2.0f * radius + 3.0f;
+  const auto inside = [&](int u, int v) {
+    return img.contains(u, v) && std::hypot(u - cu, v - cv) <= reach;
+  };
+  std::vector<std::pair<int, int>> stack;
+  const float seed_r = std::max(1.0f, 0.5f * radius);
+  for (int v = static_cast<int>(cv - seed_r); v <= static_cast<int>(cv + seed_r) + 1; ++v) {
+    for (int u = static_cast<int>(cu - seed_r); u <= static_cast<int>(cu + seed_r) + 1; ++u) {
+      if (!inside(u, v) || std::hypot(u - cu, v - cv) > seed_r) continue;
+      uint8_t& t = taken[static_cast<size_t>(v) * img.width + u];
+      if (!t && test(img.at(u, v))) {
+        t = 1;
+        stack.push_back({u, v});
+      }
+    }
+  }
+  size_t n = 0;
+  while (!stack.empty()) {
+    const auto [u, v] = stack.back();
+    stack.pop_back();
+    ball.push_back(img.at(u, v));
+    ++n;
+    const int nu[4] = {u + 1, u - 1, u, u}, nv[4] = {v, v, v + 1, v - 1};
+    for (int k = 0; k < 4; ++k) {
+      if (!inside(nu[k], nv[k])) continue;
+      uint8_t& t = taken[static_cast<size_t>(nv[k]) * img.width + nu[k]];
+      if (!t && test(img.at(nu[k], nv[k]))) {
+        t = 1;
+        stack.push_back({nu[k], nv[k]});
+      }
+    }
+  }
+  return n;
+}
+
+struct Pass {
+  const host::Sequence* seq;
+  Camera cam;
+  const ColorLut* lut;
+  BallFinder* finder;
+  GrowTest grow;
+  int every;
+};
+
+struct Found {
+  int64_t index;
+  float u, v, r;
+};
+
+// Tracks the ball through `order` (entry indices) starting from `pred` (may be null) and
+// collects what it finds.
+bool Track(const Pass& p, const std::vector<size_t>& order, const Prediction* start,
+           std::vector<Found>& found, std::string& error) {
+  Prediction pred;
+  bool have = start != nullptr;
+  if (have) pred = *start;
+  for (size_t k : order) {
+    if (cli::InterruptSignal()) return true;
+    const host::SequenceEntry& e = p.seq->entries[k];
+    const std::string& path = p.cam == Camera::kOmni ? e.omni_path : e.persp_path;
+    if (path.empty()) continue;
+    Image img;
+    if (!LoadImage(path, img, error)) return false;
+    BallDetection det;
+    FrontEndStats stats;
+    if (const Status st = p.finder->Find(img.view(), *p.lut, have ? &pred : nullptr, det, stats);
+        !st.ok()) {
+      error = path + ": " + st.message();
+      return false;
+    }
+    have = det.found;
+    if (!det.found) continue;
+    pred = Prediction{det.u_px, det.v_px, std::max(4.0f, det.radius_px)};
+    found.push_back({e.index, det.u_px, det.v_px, det.radius_px});
+  }
+  return true;
+}
+
+}  // namespace
+
+bool FitBallColorModel(const std::vector<Yuv>& ball, const BallColorModel& start,
+                       BallColorModel& out, std::string& why) {
+  if (ball.size() < kMinFitPixels) {
+    why = "only " + std::to_string(ball.size()) + " ball pixels to learn from (need " +
+          std::to_string(kMinFitPixels) + ")";
+    return false;
+  }
+  std::vector<double> hue, chroma_dark, chroma_bright, chroma_all, luma;
+  for (const Yuv& p : ball) {
+    const double c = RelChroma(p);
+    luma.push_back(p.y);
+    chroma_all.push_back(c);
+    if (c >= 0.2) hue.push_back(HueDeg(p));
+    if (p.y <= start.bright_y) chroma_dark.push_back(c);
+    if (p.y >= start.bright_y_end) chroma_bright.push_back(c);
+  }
+  if (hue.size() < kMinFitPixels / 2) {
+    why = "the taught pixels are nearly grey (relative chroma below 0.2): not a ball colour";
+    return false;
+  }
+  BallColorModel m = start;
+  // Hue: the central 98 % with a margin for what the sequence did not show (4 deg ~ the spread
+  // of one surface's pixels from sensor noise at Y 60).
+  const double h_lo = Percentile(hue, 0.01) - 4.0, h_hi = Percentile(hue, 0.99) + 4.0;
+  const double mid = 0.5 * (h_lo + h_hi), half = std::max(8.0, 0.5 * (h_hi - h_lo));
+  m.hue_min_deg = static_cast<float>(mid - half);
+  m.hue_max_deg = static_cast<float>(mid + half);
+  const auto floor_of = [](const std::vector<double>& c, double fallback) {
+    return c.size() < 50 ? fallback : std::clamp(0.85 * Percentile(c, 0.03), 0.12, 0.5);
+  };
+  m.chroma_min = static_cast<float>(floor_of(chroma_dark, start.chroma_min));
+  m.chroma_min_bright =
+      std::min(m.chroma_min, static_cast<float>(floor_of(chroma_bright, start.chroma_min_bright)));
+  m.chroma_max = static_cast<float>(std::clamp(1.3 * Percentile(chroma_all, 0.995), 1.0, 4.0));
+  m.y_min = static_cast<uint8_t>(std::clamp(Percentile(luma, 0.005) - 8.0, 12.0, 96.0));
+  const Status st = ValidateBallColorModel(m);
+  if (!st.ok()) {
+    why = st.message();
+    return false;
+  }
+  out = m;
+  return true;
+}
+
+bool TeachSequence(const std::string& dir, const FinderSetup& setup, const TeachOptions& opt,
+                   TeachReport& out, std::string& error) {
+  host::Sequence seq;
+  if (!host::LoadSequence(dir, seq, error)) return false;
+  if (const Status st = ValidateBallColorModel(opt.start); !st.ok()) {
+    error = st.message();
+    return false;
+  }
+  static ColorLut lut;
+  if (const Status st = BuildLut(opt.start, lut); !st.ok()) {
+    error = st.message();
+    return false;
+  }
+  const GrowTest grow{opt.start.hue_min_deg - kGrowHueMarginDeg,
+                      opt.start.hue_max_deg + kGrowHueMarginDeg};
+  std::vector<Yuv> ball;
+  std::vector<Yuv> background;
+  out = TeachReport{};
+  for (int c = 0; c < 2; ++c) {
+    if (!opt.cameras[c]) continue;
+    const Camera cam = static_cast<Camera>(c);
+    auto table = std::make_unique<ScanlineTable<kOmniScanPixels>>();
+    const Status st = cam == Camera::kOmni
+                          ? table->BuildOmni(setup.omni, kFrameWidth, kFrameHeight)
+                          : table->BuildPersp(setup.persp, kFrameWidth, kFrameHeight);
+    auto finder = std::make_unique<BallFinder>();
+    if (!st.ok() || !finder->Init(*table, setup.finder).ok()) {
+      error = "scanlines / finder for the " + std::string(c == 0 ? "omni" : "persp") + " camera";
+      return false;
+    }
+    std::vector<size_t> order;
+    for (size_t k = 0; k < seq.entries.size(); ++k) {
+      if (opt.every <= 1 || seq.entries[k].index % opt.every == 0) order.push_back(k);
+    }
+    const Pass pass{&seq, cam, &lut, finder.get(), grow, opt.every};
+    std::vector<Found> found;
+    if (opt.click && opt.click_camera == cam) {
+      const auto at = std::find_if(order.begin(), order.end(), [&](size_t k) {
+        return seq.entries[k].index == opt.click_index;
+      });
+      if (at == order.end()) {
+        error = "the click's frame " + std::to_string(opt.click_index) + " is not in " + dir +
+                (opt.every > 1 ? " (or not among the frames --every selects)" : "");
+        return false;
+      }
+      const Prediction click{opt.click_u, opt.click_v, 6.0f};
+      std::vector<Found> first;
+      if (!Track(pass, {*at}, &click, first, error)) return false;
+      if (first.empty() ||
+          std::hypot(first[0].u - opt.click_u, first[0].v - opt.click_v) > first[0].r + 6.0f) {
+        char buf[200];
+        std::snprintf(buf, sizeof buf,
+                      "no ball-coloured region at the click (%s frame %lld, pixel %.0f, %.0f): "
+                      "the table of the starting model finds nothing there",
+                      c == 0 ? "omni" : "persp", static_cast<long long>(opt.click_index),
+                      opt.click_u, opt.click_v);
+        error = buf;
+        return false;
+      }
+      const Prediction from{first[0].u, first[0].v, std::max(4.0f, first[0].r)};
+      std::vector<size_t> fwd(at, order.end()), back(order.begin(), at + 1);
+      std::reverse(back.begin(), back.end());
+      if (!Track(pass, fwd, &from, found, error) || !Track(pass, back, &from, found, error)) {
+        return false;
+      }
+    } else if (!Track(pass, order, nullptr, found, error)) {
+      return false;
+    }
+    std::sort(found.begin(), found.end(),
+              [](const Found& a, const Found& b) { return a.index < b.index; });
+    found.erase(std::unique(found.begin(), found.end(),
+                            [](const Found& a, const Found& b) { return a.index == b.index; }),
+                found.end());
+    float moved = 0;
+    for (const Found& f : found) {
+      moved = std::max(moved, std::hypot(f.u - found.front().u, f.v - found.front().v));
+    }
+    out.first_moves_px = std::max<int64_t>(out.first_moves_px, static_cast<int64_t>(moved));
+    // Grow the ball in every frame it was found in; sample the rest as background.
+    size_t k_found = 0;
+    for (const host::SequenceEntry& e : seq.entries) {
+      while (k_found < found.size() && found[k_found].index < e.index) ++k_found;
+      if (k_found >= found.size() || found[k_found].index != e.index) continue;
+      const Found& f = found[k_found];
+      Image img;
+      if (!LoadImage(c == 0 ? e.omni_path : e.persp_path, img, error)) return false;
+      const YuyvImage view = img.view();
+      std::vector<uint8_t> taken(static_cast<size_t>(img.width) * img.height, 0);
+      if (GrowBall(view, grow, f.u, f.v, f.r, ball, taken) > 0) ++out.frames[c];
+      const float keep_out = 3.0f * f.r + 6.0f;
+      for (int v = 3; v < img.height; v += 8) {
+        for (int u = (v / 8) % 8; u < img.width; u += 8) {
+          if (std::hypot(u - f.u, v - f.v) > keep_out) background.push_back(view.at(u, v));
+        }
+      }
+    }
+  }
+  if (out.frames[0] + out.frames[1] == 0) {
+    error = "the ball was found in no frame of " + dir +
+            (opt.click ? std::string() : std::string(" (give a click: --click INDEX:CAMERA:U,V)"));
+    return false;
+  }
+  std::string why;
+  if (!FitBallColorModel(ball, opt.start, out.model, why)) {
+    error = why;
+    return false;
+  }
+  out.ball_pixels = ball.size();
+  out.background = background.size();
+  size_t field = 0, field_taken = 0, taken = 0;
+  for (const Yuv& p : background) {
+    const bool is_ball = InBallColorModel(out.model, p.y, p.u, p.v);
+    taken += is_ball;
+    const ColorClass bg = BackgroundClass(p.y, p.u, p.v);
+    if (bg == ColorClass::kField || bg == ColorClass::kLine) {
+      ++field;
+      field_taken += is_ball;
+    }
+  }
+  out.field_taken = field ? static_cast<double>(field_taken) / field : 0.0;
+  out.background_taken = background.empty() ? 0.0 : static_cast<double>(taken) / background.size();
+  if (out.field_taken > kMaxFieldTaken) {
+    char buf[160];
+    std::snprintf(buf, sizeof buf,
+                  "the taught colour would take %.2f %% of the field's and lines' pixels "
+                  "(limit %.1f %%): refused",
+                  100.0 * out.field_taken, 100.0 * kMaxFieldTaken);
+    error = buf;
+    return false;
+  }
+  return true;
+}
+
+}  // namespace bv::lut
