@@ -9,6 +9,9 @@ namespace bv {
 namespace {
 
 constexpr float kRimMarginPx = 3.f;  // a ball this close to the mirror rim may be cut by it
+constexpr float kMaxApparentSizeRatio = 1.25f;  // persp radius / a ball's at the stereo range
+constexpr float kStereoGapM = 0.08f, kStereoGapPerM = 0.02f;
+constexpr size_t kStereoCandidates = 4;  // per camera, in the acquisition choice
 constexpr int kMinGoalRaysWithoutPose = 3;
 
 float AngleBetween(const Eigen::Vector3f& a, const Eigen::Vector3f& b) {
@@ -333,6 +336,49 @@ BallDetection Pipeline::Detect(BallFinder& finder, const YuyvImage& img,
   return det;
 }
 
+// Two detections are one ball when their rays meet and the persp region is no larger than a
+// ball at the range they meet at.
+bool Pipeline::StereoConsistent(const BallDetection& omni, const BallDetection& persp) const {
+  const RigCalibration& cal = *calibration_;
+  const Result<Ray> ro = OmniPixelToRayExtended(cal.omni, omni.u_px, omni.v_px);
+  const Result<Ray> rp = PerspPixelToRay(cal.persp, persp.u_px, persp.v_px);
+  if (!ro.ok() || !rp.ok()) return false;
+  const Result<Triangulation> tri = TriangulateRays(*rp, *ro, config_.triangulation);
+  if (!tri.ok() || tri->point.z() < -cal.ball_radius_m) return false;
+  const float range = (tri->point - rp->origin).norm();
+  // The calibrated rays of one ball meet within ~1 cm (tools/python/validate_rays.py); this
+  // gate is looser for the centroids of partly classified or cut balls, and far tighter than
+  // the tracking gate (max_ray_gap_m), which would pair unrelated regions.
+  if (tri->gap_m > kStereoGapM + kStereoGapPerM * range) return false;
+  return !LargerThanABall(persp.radius_px, range);
+}
+
+// A ball never looks bigger than it is: a persp region much larger than a ball at `range_m` is
+// something else, or the ball merged with a same-coloured object behind it. Partly hidden balls
+// look smaller, so the test is one-sided.
+bool Pipeline::LargerThanABall(float persp_radius_px, float range_m) const {
+  const RigCalibration& cal = *calibration_;
+  const float expected_px = cal.persp.fx * cal.ball_radius_m / std::max(range_m, 0.05f);
+  return persp_radius_px > kMaxApparentSizeRatio * expected_px + 1.0f;
+}
+
+// Acquisition (no track yet): if the two cameras' choices are not one ball, the pair of
+// candidates that is, the larger in the persp image first. Nothing changes when no pair is.
+void Pipeline::ChooseStereoPair(BallDetection& omni, BallDetection& persp) const {
+  if (StereoConsistent(omni, persp)) return;
+  BallDetection co[kStereoCandidates], cp[kStereoCandidates];
+  const size_t no = omni_finder_.Candidates(co), np = persp_finder_.Candidates(cp);
+  for (size_t j = 0; j < np; ++j) {  // persp candidates come largest first
+    for (size_t i = 0; i < no; ++i) {
+      if (StereoConsistent(co[i], cp[j])) {
+        omni = co[i];
+        persp = cp[j];
+        return;
+      }
+    }
+  }
+}
+
 Status Pipeline::Process(const FrameInput& in, BallState& out) {
   out = BallState{};
   out.t_us = in.t_us;
@@ -367,6 +413,9 @@ Status Pipeline::Process(const FrameInput& in, BallState& out) {
   // 3. Front end per camera present.
   if (in.omni.valid() && cal.omni.valid) out.omni = Detect(omni_finder_, in.omni, pred_omni_);
   if (in.persp.valid() && cal.persp.valid) out.persp = Detect(persp_finder_, in.persp, pred_persp_);
+  if (out.omni.found && out.persp.found && !pred_omni_.valid && !pred_persp_.valid) {
+    ChooseStereoPair(out.omni, out.persp);
+  }
 
   // 4. Rays. A ball cut by the mirror rim or the image border has a biased centroid and size: its
   // ray still goes to the filter, with half its radius more of centroid noise and no size cue
@@ -391,7 +440,12 @@ Status Pipeline::Process(const FrameInput& in, BallState& out) {
       have_o = true;
     }
   }
-  if (out.persp.found) {
+  // Tracking: a persp region much larger than the predicted ball has merged with a same-coloured
+  // object behind it (a red box): its centroid is not the ball's, this frame uses the omni only.
+  const bool persp_merged =
+      out.persp.found && !persp_cut && pred_persp_.valid && pred_persp_.radius_px > 0.f &&
+      out.persp.radius_px > kMaxApparentSizeRatio * pred_persp_.radius_px + 1.0f;
+  if (out.persp.found && !persp_merged) {
     auto ray = PerspPixelToRay(cal.persp, out.persp.u_px, out.persp.v_px);
     if (ray.ok()) {
       ray_p = *ray;
@@ -438,7 +492,8 @@ Status Pipeline::Process(const FrameInput& in, BallState& out) {
     auto tri = TriangulateRays(ray_p, ray_o, config_.triangulation);
     if (tri.ok()) {
       out.ray_gap_m = tri->gap_m;
-      if (tri->gap_m <= config_.max_ray_gap_m) {
+      const float range = (tri->point - ray_p.origin).norm();
+      if (tri->gap_m <= std::min(config_.max_ray_gap_m, kStereoGapM + kStereoGapPerM * range)) {
         out.flags |= kFlagTriangulated;
         meas_.valid = true;
         meas_.p_m = tri->point;

@@ -52,6 +52,41 @@ float FieldContext(const YuyvImage& image, const ColorLut& lut, const Region& r)
 }
 }  // namespace
 
+// The shape test, then the field test (in reject mode an outside region fails).
+bool BallFinder::Passes(const Region& r, bool& in_field) const {
+  in_field = true;
+  const bool clean = r.roundness >= config_.min_roundness;
+  const bool compact =
+      r.hull_roundness >= config_.min_hull_roundness && r.width_ratio >= config_.min_width_ratio;
+  if (r.area_px < config_.min_area_px || !(clean || compact)) return false;
+  in_field = config_.field == nullptr ||
+             config_.field->Inside(r.cu_px, r.cv_px, std::sqrt(r.area_px / 3.14159265f));
+  return in_field || !reject_outside_;
+}
+
+size_t BallFinder::Candidates(std::span<BallDetection> out) const {
+  size_t n = 0;
+  for (const Region& r : regions_.regions()) {
+    bool in_field = true;
+    if (r.hole || !Passes(r, in_field)) continue;
+    BallDetection d;
+    d.found = true;
+    d.u_px = r.cu_px;
+    d.v_px = r.cv_px;
+    d.area_px = r.area_px;
+    d.radius_px = std::sqrt(r.area_px / 3.14159265f);
+    d.roundness = d.confidence = r.hull_roundness;
+    // Insertion into the largest-first list; the smallest drops out when it is full.
+    size_t k = n < out.size() ? n++ : out.size();
+    while (k > 0 && out[k - 1].area_px < d.area_px) {
+      if (k < out.size()) out[k] = out[k - 1];
+      --k;
+    }
+    if (k < out.size()) out[k] = d;
+  }
+  return n;
+}
+
 uint32_t BallFinder::NextRandom() {  // xorshift32
   rng_ ^= rng_ << 13;
   rng_ ^= rng_ >> 17;
@@ -147,15 +182,9 @@ Status BallFinder::Find(const YuyvImage& image, const ColorLut& lut, const Predi
       ++holes;
       continue;
     }
-    const bool clean = r.roundness >= config_.min_roundness;
-    const bool compact =
-        r.hull_roundness >= config_.min_hull_roundness && r.width_ratio >= config_.min_width_ratio;
-    if (r.area_px < config_.min_area_px || !(clean || compact)) continue;
-    const bool in_field =
-        config_.field == nullptr ||
-        config_.field->Inside(r.cu_px, r.cv_px, std::sqrt(r.area_px / 3.14159265f));
-    if (!in_field && reject_outside_) {
-      ++stats.outside_field;
+    bool in_field = true;
+    if (!Passes(r, in_field)) {
+      stats.outside_field += !in_field;
       continue;
     }
     ++candidates;

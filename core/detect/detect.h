@@ -6,6 +6,7 @@
 // One BallFinder per camera, statically allocated; Find() never allocates.
 #include <cstddef>
 #include <cstdint>
+#include <span>
 
 #include "core/color_lut/color_lut.h"
 #include "core/common/ball_state.h"
@@ -87,11 +88,16 @@ class BallFinder {
   int16_t attention_u(int i) const { return attention_u_[i]; }
   int16_t attention_v(int i) const { return attention_v_[i]; }
   int chosen_region() const { return chosen_; }  // index into regions(), -1 if none
+  /// The other balls the last Find could have chosen (regions that pass the shape test and, in
+  /// reject mode, the field test), largest first, at most out.size(); reads no pixels. For a
+  /// choice across both cameras (core/pipeline). Confidence is the region's roundness.
+  size_t Candidates(std::span<BallDetection> out) const;
   /// While on, a candidate the in-field predicate calls outside is refused, not just disfavoured
   /// (the caller turns it on only while it trusts its field pose).
   void set_reject_outside(bool on) { reject_outside_ = on; }
 
  private:
+  bool Passes(const Region& r, bool& in_field) const;
   uint32_t NextRandom();
   void Seed(const YuyvImage& image, const ColorLut& lut, int u, int v, FrontEndStats& stats);
 

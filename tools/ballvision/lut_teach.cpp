@@ -14,10 +14,12 @@ namespace bv::lut {
 namespace {
 
 constexpr double kRadToDeg = 57.29577951308232;
-constexpr float kGrowHueMarginDeg = 20.0f;  // the grow test is the start window widened by this
+constexpr float kGrowHueMarginDeg = 10.0f;  // the grow test is the start window widened by this
 constexpr float kGrowChromaMin = 0.10f;     // ... and this relative chroma floor
 constexpr size_t kMinFitPixels = 200;
 constexpr double kMaxFieldTaken = 0.002;
+constexpr int kBackgroundStride = 8;  // background sampled every 8th pixel of every 8th row
+constexpr double kBackgroundSampleWeight = kBackgroundStride * kBackgroundStride;
 
 double HueDeg(const Yuv& p) { return std::atan2(p.v - 128.0, p.u - 128.0) * kRadToDeg; }
 double RelChroma(const Yuv& p) {
@@ -61,12 +63,11 @@ size_t GrowBall(const YuyvImage& img, const GrowTest& test, float cu, float cv, 
       }
     }
   }
-  size_t n = 0;
+  std::vector<std::pair<int, int>> region;
   while (!stack.empty()) {
     const auto [u, v] = stack.back();
     stack.pop_back();
-    ball.push_back(img.at(u, v));
-    ++n;
+    region.push_back({u, v});
     const int nu[4] = {u + 1, u - 1, u, u}, nv[4] = {v, v, v + 1, v - 1};
     for (int k = 0; k < 4; ++k) {
       if (!inside(nu[k], nv[k])) continue;
@@ -75,6 +76,17 @@ size_t GrowBall(const YuyvImage& img, const GrowTest& test, float cu, float cv, 
         t = 1;
         stack.push_back({nu[k], nv[k]});
       }
+    }
+  }
+  // The outline's pixels mix the ball with what is around it (green, white): left out.
+  size_t n = 0;
+  for (const auto& [u, v] : region) {
+    const auto in = [&](int a, int b) {
+      return img.contains(a, b) && taken[static_cast<size_t>(b) * img.width + a];
+    };
+    if (in(u + 1, v) && in(u - 1, v) && in(u, v + 1) && in(u, v - 1)) {
+      ball.push_back(img.at(u, v));
+      ++n;
     }
   }
   return n;
@@ -97,9 +109,10 @@ struct Found {
 // Tracks the ball through `order` (entry indices) starting from `pred` (may be null) and
 // collects what it finds.
 bool Track(const Pass& p, const std::vector<size_t>& order, const Prediction* start,
-           std::vector<Found>& found, std::string& error) {
+           float start_radius, std::vector<Found>& found, std::string& error) {
   Prediction pred;
   bool have = start != nullptr;
+  float last_r = start_radius;  // 0: unknown
   if (have) pred = *start;
   for (size_t k : order) {
     if (cli::InterruptSignal()) return true;
@@ -115,8 +128,20 @@ bool Track(const Pass& p, const std::vector<size_t>& order, const Prediction* st
       error = path + ": " + st.message();
       return false;
     }
-    have = det.found;
-    if (!det.found) continue;
+    if (!det.found) {
+      have = false;
+      continue;
+    }
+    // Conservative: a jump or a sudden change of size means the ball merged with, or was
+    // swapped for, something else of its colour; the track ends there (a teach needs the ball
+    // in fewer frames, not in wrong ones).
+    if (have &&
+        (std::hypot(det.u_px - pred.u_px, det.v_px - pred.v_px) > 2.0f * pred.sigma_px ||
+         (last_r > 0 && (det.radius_px > 1.5f * last_r || det.radius_px < last_r / 1.5f)))) {
+      return true;
+    }
+    have = true;
+    last_r = det.radius_px;
     pred = Prediction{det.u_px, det.v_px, std::max(4.0f, det.radius_px)};
     found.push_back({e.index, det.u_px, det.v_px, det.radius_px});
   }
@@ -137,18 +162,18 @@ bool FitBallColorModel(const std::vector<Yuv>& ball, const BallColorModel& start
     const double c = RelChroma(p);
     luma.push_back(p.y);
     chroma_all.push_back(c);
-    if (c >= 0.2) hue.push_back(HueDeg(p));
+    if (c >= 0.25) hue.push_back(HueDeg(p));
     if (p.y <= start.bright_y) chroma_dark.push_back(c);
     if (p.y >= start.bright_y_end) chroma_bright.push_back(c);
   }
   if (hue.size() < kMinFitPixels / 2) {
-    why = "the taught pixels are nearly grey (relative chroma below 0.2): not a ball colour";
+    why = "the taught pixels are nearly grey (relative chroma below 0.25): not a ball colour";
     return false;
   }
   BallColorModel m = start;
-  // Hue: the central 98 % with a margin for what the sequence did not show (4 deg ~ the spread
+  // Hue: the central 96 % with a margin for what the sequence did not show (4 deg ~ the spread
   // of one surface's pixels from sensor noise at Y 60).
-  const double h_lo = Percentile(hue, 0.01) - 4.0, h_hi = Percentile(hue, 0.99) + 4.0;
+  const double h_lo = Percentile(hue, 0.02) - 4.0, h_hi = Percentile(hue, 0.98) + 4.0;
   const double mid = 0.5 * (h_lo + h_hi), half = std::max(8.0, 0.5 * (h_hi - h_lo));
   m.hue_min_deg = static_cast<float>(mid - half);
   m.hue_max_deg = static_cast<float>(mid + half);
@@ -169,6 +194,157 @@ bool FitBallColorModel(const std::vector<Yuv>& ball, const BallColorModel& start
   return true;
 }
 
+void NarrowAgainstBackground(const std::vector<Yuv>& ball, const std::vector<Yuv>& background,
+                             double background_weight, BallColorModel& m) {
+  // Hue of every pixel the model takes apart from its hue window (the window is what moves).
+  const auto hues = [&m](const std::vector<Yuv>& px) {
+    std::vector<double> h;
+    for (const Yuv& p : px) {
+      BallColorModel at = m;
+      const double hp = HueDeg(p);
+      at.hue_min_deg = static_cast<float>(hp - 0.5);
+      at.hue_max_deg = static_cast<float>(hp + 0.5);
+      if (InBallColorModel(at, p.y, p.u, p.v)) h.push_back(hp);
+    }
+    std::sort(h.begin(), h.end());
+    return h;
+  };
+  const std::vector<double> hb = hues(ball), hg = hues(background);
+  if (hb.size() < kMinFitPixels || hg.empty()) return;
+  const auto count_in = [](const std::vector<double>& h, double lo, double hi) {
+    return static_cast<double>(std::upper_bound(h.begin(), h.end(), hi) -
+                               std::lower_bound(h.begin(), h.end(), lo));
+  };
+  const auto pct = [&hb](double q) {
+    return hb[std::min(hb.size() - 1, static_cast<size_t>(q * static_cast<double>(hb.size())))];
+  };
+  double best_lo = m.hue_min_deg, best_hi = m.hue_max_deg;
+  double best = 1e300;
+  const double qs_lo[] = {-1, 0.005, 0.01, 0.02, 0.03, 0.05, 0.08};
+  const double qs_hi[] = {-1, 0.995, 0.99, 0.98, 0.97, 0.95, 0.92};
+  for (double ql : qs_lo) {
+    for (double qh : qs_hi) {
+      const double lo = ql < 0 ? m.hue_min_deg : std::max<double>(m.hue_min_deg, pct(ql) - 1.0);
+      const double hi = qh < 0 ? m.hue_max_deg : std::min<double>(m.hue_max_deg, pct(qh) + 1.0);
+      if (hi - lo < 6.0) continue;
+      const double cost = static_cast<double>(hb.size()) - count_in(hb, lo, hi) +
+                          background_weight * count_in(hg, lo, hi);
+      if (cost < best - 1e-9) {
+        best = cost;
+        best_lo = lo;
+        best_hi = hi;
+      }
+    }
+  }
+  m.hue_min_deg = static_cast<float>(best_lo);
+  m.hue_max_deg = static_cast<float>(best_hi);
+}
+
+namespace {
+
+struct Collected {
+  std::vector<Yuv> ball, background;
+  int frames[2] = {0, 0};
+  int64_t moved_px = 0;
+};
+
+// One camera: track the ball with `model`'s table (from the click when it names this camera),
+// grow it in every frame it was found in, sample the rest of those frames as background.
+bool CollectCamera(const host::Sequence& seq, const FinderSetup& setup, const TeachOptions& opt,
+                   const BallColorModel& model, Camera cam, Collected& out, std::string& error) {
+  static ColorLut lut;
+  if (const Status st = BuildLut(model, lut); !st.ok()) {
+    error = st.message();
+    return false;
+  }
+  const int c = static_cast<int>(cam);
+  auto table = std::make_unique<ScanlineTable<kOmniScanPixels>>();
+  const Status st = cam == Camera::kOmni
+                        ? table->BuildOmni(setup.omni, kFrameWidth, kFrameHeight)
+                        : table->BuildPersp(setup.persp, kFrameWidth, kFrameHeight);
+  auto finder = std::make_unique<BallFinder>();
+  if (!st.ok() || !finder->Init(*table, setup.finder).ok()) {
+    error = "scanlines / finder for the " + std::string(c == 0 ? "omni" : "persp") + " camera";
+    return false;
+  }
+  std::vector<size_t> order;
+  for (size_t k = 0; k < seq.entries.size(); ++k) {
+    if (opt.every <= 1 || seq.entries[k].index % opt.every == 0) order.push_back(k);
+  }
+  const GrowTest grow{model.hue_min_deg - kGrowHueMarginDeg, model.hue_max_deg + kGrowHueMarginDeg};
+  const Pass pass{&seq, cam, &lut, finder.get(), grow, opt.every};
+  std::vector<Found> found;
+  if (opt.click && opt.click_camera == cam) {
+    const auto at = std::find_if(order.begin(), order.end(),
+                                 [&](size_t k) { return seq.entries[k].index == opt.click_index; });
+    if (at == order.end()) {
+      error = "the click's frame " + std::to_string(opt.click_index) + " is not in " + seq.dir +
+              (opt.every > 1 ? " (or not among the frames --every selects)" : "");
+      return false;
+    }
+    const Prediction click{opt.click_u, opt.click_v, 6.0f};
+    std::vector<Found> first;
+    if (!Track(pass, {*at}, &click, 0.0f, first, error)) return false;
+    if (first.empty() ||
+        std::hypot(first[0].u - opt.click_u, first[0].v - opt.click_v) > first[0].r + 6.0f) {
+      char buf[200];
+      std::snprintf(buf, sizeof buf,
+                    "no ball-coloured region at the click (%s frame %lld, pixel %.0f, %.0f): "
+                    "the starting model's table finds nothing there",
+                    c == 0 ? "omni" : "persp", static_cast<long long>(opt.click_index), opt.click_u,
+                    opt.click_v);
+      error = buf;
+      return false;
+    }
+    const Prediction from{first[0].u, first[0].v, std::max(4.0f, first[0].r)};
+    std::vector<size_t> fwd(at, order.end()), back(order.begin(), at + 1);
+    std::reverse(back.begin(), back.end());
+    if (!Track(pass, fwd, &from, first[0].r, found, error) ||
+        !Track(pass, back, &from, first[0].r, found, error)) {
+      return false;
+    }
+  } else if (!Track(pass, order, nullptr, 0.0f, found, error)) {
+    return false;
+  }
+  std::sort(found.begin(), found.end(),
+            [](const Found& a, const Found& b) { return a.index < b.index; });
+  found.erase(std::unique(found.begin(), found.end(),
+                          [](const Found& a, const Found& b) { return a.index == b.index; }),
+              found.end());
+  for (const Found& f : found) {
+    out.moved_px =
+        std::max(out.moved_px,
+                 static_cast<int64_t>(std::hypot(f.u - found.front().u, f.v - found.front().v)));
+  }
+  size_t k_found = 0;
+  for (const host::SequenceEntry& e : seq.entries) {
+    while (k_found < found.size() && found[k_found].index < e.index) ++k_found;
+    if (k_found >= found.size() || found[k_found].index != e.index) continue;
+    const Found& f = found[k_found];
+    Image img;
+    if (!LoadImage(c == 0 ? e.omni_path : e.persp_path, img, error)) return false;
+    const YuyvImage view = img.view();
+    std::vector<uint8_t> taken(static_cast<size_t>(img.width) * img.height, 0);
+    // A ball grown to more than twice the found region's area has leaked into something of its
+    // colour behind it (both found and grown are then unreliable): that frame is left out.
+    std::vector<Yuv> grown;
+    const size_t n = GrowBall(view, grow, f.u, f.v, f.r, grown, taken);
+    if (n == 0 || static_cast<float>(n) > 2.0f * 3.14159f * f.r * f.r) continue;
+    out.ball.insert(out.ball.end(), grown.begin(), grown.end());
+    ++out.frames[c];
+    const float keep_out = 3.0f * f.r + 6.0f;
+    for (int v = 3; v < img.height; v += kBackgroundStride) {
+      for (int u = (v / kBackgroundStride) % kBackgroundStride; u < img.width;
+           u += kBackgroundStride) {
+        if (std::hypot(u - f.u, v - f.v) > keep_out) out.background.push_back(view.at(u, v));
+      }
+    }
+  }
+  return true;
+}
+
+}  // namespace
+
 bool TeachSequence(const std::string& dir, const FinderSetup& setup, const TeachOptions& opt,
                    TeachReport& out, std::string& error) {
   host::Sequence seq;
@@ -177,109 +353,43 @@ bool TeachSequence(const std::string& dir, const FinderSetup& setup, const Teach
     error = st.message();
     return false;
   }
-  static ColorLut lut;
-  if (const Status st = BuildLut(opt.start, lut); !st.ok()) {
-    error = st.message();
-    return false;
-  }
-  const GrowTest grow{opt.start.hue_min_deg - kGrowHueMarginDeg,
-                      opt.start.hue_max_deg + kGrowHueMarginDeg};
-  std::vector<Yuv> ball;
-  std::vector<Yuv> background;
   out = TeachReport{};
-  for (int c = 0; c < 2; ++c) {
-    if (!opt.cameras[c]) continue;
-    const Camera cam = static_cast<Camera>(c);
-    auto table = std::make_unique<ScanlineTable<kOmniScanPixels>>();
-    const Status st = cam == Camera::kOmni
-                          ? table->BuildOmni(setup.omni, kFrameWidth, kFrameHeight)
-                          : table->BuildPersp(setup.persp, kFrameWidth, kFrameHeight);
-    auto finder = std::make_unique<BallFinder>();
-    if (!st.ok() || !finder->Init(*table, setup.finder).ok()) {
-      error = "scanlines / finder for the " + std::string(c == 0 ? "omni" : "persp") + " camera";
+  // Pass 1 learns from the clicked camera only (or both, without a click); pass 2 finds the
+  // ball in every camera again with the narrower model of pass 1, which no longer takes the
+  // red and orange things around it that the broad starting model does, and learns from all.
+  BallColorModel model = opt.start;
+  Collected got;
+  for (int pass = 0; pass < 2; ++pass) {
+    got = Collected{};
+    for (int c = 0; c < 2; ++c) {
+      const bool use =
+          opt.cameras[c] && (pass == 1 || !opt.click || static_cast<int>(opt.click_camera) == c);
+      if (use && !CollectCamera(seq, setup, opt, model, static_cast<Camera>(c), got, error)) {
+        return false;
+      }
+    }
+    if (cli::InterruptSignal()) return true;
+    if (got.frames[0] + got.frames[1] == 0) {
+      error =
+          "the ball was found in no frame of " + dir +
+          (opt.click ? std::string() : std::string(" (give a click: --click INDEX:CAMERA:U,V)"));
       return false;
     }
-    std::vector<size_t> order;
-    for (size_t k = 0; k < seq.entries.size(); ++k) {
-      if (opt.every <= 1 || seq.entries[k].index % opt.every == 0) order.push_back(k);
-    }
-    const Pass pass{&seq, cam, &lut, finder.get(), grow, opt.every};
-    std::vector<Found> found;
-    if (opt.click && opt.click_camera == cam) {
-      const auto at = std::find_if(order.begin(), order.end(), [&](size_t k) {
-        return seq.entries[k].index == opt.click_index;
-      });
-      if (at == order.end()) {
-        error = "the click's frame " + std::to_string(opt.click_index) + " is not in " + dir +
-                (opt.every > 1 ? " (or not among the frames --every selects)" : "");
-        return false;
-      }
-      const Prediction click{opt.click_u, opt.click_v, 6.0f};
-      std::vector<Found> first;
-      if (!Track(pass, {*at}, &click, first, error)) return false;
-      if (first.empty() ||
-          std::hypot(first[0].u - opt.click_u, first[0].v - opt.click_v) > first[0].r + 6.0f) {
-        char buf[200];
-        std::snprintf(buf, sizeof buf,
-                      "no ball-coloured region at the click (%s frame %lld, pixel %.0f, %.0f): "
-                      "the table of the starting model finds nothing there",
-                      c == 0 ? "omni" : "persp", static_cast<long long>(opt.click_index),
-                      opt.click_u, opt.click_v);
-        error = buf;
-        return false;
-      }
-      const Prediction from{first[0].u, first[0].v, std::max(4.0f, first[0].r)};
-      std::vector<size_t> fwd(at, order.end()), back(order.begin(), at + 1);
-      std::reverse(back.begin(), back.end());
-      if (!Track(pass, fwd, &from, found, error) || !Track(pass, back, &from, found, error)) {
-        return false;
-      }
-    } else if (!Track(pass, order, nullptr, found, error)) {
+    std::string why;
+    if (!FitBallColorModel(got.ball, opt.start, model, why)) {
+      error = why;
       return false;
     }
-    std::sort(found.begin(), found.end(),
-              [](const Found& a, const Found& b) { return a.index < b.index; });
-    found.erase(std::unique(found.begin(), found.end(),
-                            [](const Found& a, const Found& b) { return a.index == b.index; }),
-                found.end());
-    float moved = 0;
-    for (const Found& f : found) {
-      moved = std::max(moved, std::hypot(f.u - found.front().u, f.v - found.front().v));
-    }
-    out.first_moves_px = std::max<int64_t>(out.first_moves_px, static_cast<int64_t>(moved));
-    // Grow the ball in every frame it was found in; sample the rest as background.
-    size_t k_found = 0;
-    for (const host::SequenceEntry& e : seq.entries) {
-      while (k_found < found.size() && found[k_found].index < e.index) ++k_found;
-      if (k_found >= found.size() || found[k_found].index != e.index) continue;
-      const Found& f = found[k_found];
-      Image img;
-      if (!LoadImage(c == 0 ? e.omni_path : e.persp_path, img, error)) return false;
-      const YuyvImage view = img.view();
-      std::vector<uint8_t> taken(static_cast<size_t>(img.width) * img.height, 0);
-      if (GrowBall(view, grow, f.u, f.v, f.r, ball, taken) > 0) ++out.frames[c];
-      const float keep_out = 3.0f * f.r + 6.0f;
-      for (int v = 3; v < img.height; v += 8) {
-        for (int u = (v / 8) % 8; u < img.width; u += 8) {
-          if (std::hypot(u - f.u, v - f.v) > keep_out) background.push_back(view.at(u, v));
-        }
-      }
-    }
+    NarrowAgainstBackground(got.ball, got.background, kBackgroundSampleWeight, model);
   }
-  if (out.frames[0] + out.frames[1] == 0) {
-    error = "the ball was found in no frame of " + dir +
-            (opt.click ? std::string() : std::string(" (give a click: --click INDEX:CAMERA:U,V)"));
-    return false;
-  }
-  std::string why;
-  if (!FitBallColorModel(ball, opt.start, out.model, why)) {
-    error = why;
-    return false;
-  }
-  out.ball_pixels = ball.size();
-  out.background = background.size();
+  out.model = model;
+  out.frames[0] = got.frames[0];
+  out.frames[1] = got.frames[1];
+  out.first_moves_px = got.moved_px;
+  out.ball_pixels = got.ball.size();
+  out.background = got.background.size();
   size_t field = 0, field_taken = 0, taken = 0;
-  for (const Yuv& p : background) {
+  for (const Yuv& p : got.background) {
     const bool is_ball = InBallColorModel(out.model, p.y, p.u, p.v);
     taken += is_ball;
     const ColorClass bg = BackgroundClass(p.y, p.u, p.v);
@@ -289,7 +399,8 @@ bool TeachSequence(const std::string& dir, const FinderSetup& setup, const Teach
     }
   }
   out.field_taken = field ? static_cast<double>(field_taken) / field : 0.0;
-  out.background_taken = background.empty() ? 0.0 : static_cast<double>(taken) / background.size();
+  out.background_taken =
+      got.background.empty() ? 0.0 : static_cast<double>(taken) / got.background.size();
   if (out.field_taken > kMaxFieldTaken) {
     char buf[160];
     std::snprintf(buf, sizeof buf,

@@ -47,6 +47,13 @@ struct TeachReport {
 bool FitBallColorModel(const std::vector<Yuv>& ball, const BallColorModel& start,
                        BallColorModel& out, std::string& why);
 
+/// Narrows the model's hue window to the choice of ball-pixel percentiles that leaves out the
+/// most background for the fewest ball pixels (each background sample counts `background_weight`
+/// pixels): red and orange things near the ball's hue but not on it are excluded where the ball's
+/// own spread allows.
+void NarrowAgainstBackground(const std::vector<Yuv>& ball, const std::vector<Yuv>& background,
+                             double background_weight, BallColorModel& m);
+
 /// The whole teach over a sequence directory (frames.csv). False with `error` naming what was
 /// wrong: the sequence, no frame with the ball, a click not on a ball-coloured region, a fit
 /// that would take more than 0.2 % of the field's pixels.
