@@ -431,9 +431,8 @@ Status Pipeline::Process(const FrameInput& in, BallState& out) {
       out.persp.found && (out.persp.u_px - pr < 0.5f || out.persp.v_px - pr < 0.5f ||
                           out.persp.u_px + pr > static_cast<float>(in.persp.width) - 1.5f ||
                           out.persp.v_px + pr > static_cast<float>(in.persp.height) - 1.5f);
-  if (out.omni.found) out.flags |= kFlagSeenOmni;
-  if (out.persp.found) out.flags |= kFlagSeenPersp;
   if (out.omni.found) {
+    out.flags |= kFlagSeenOmni;
     auto ray = OmniPixelToRayExtended(cal.omni, out.omni.u_px, out.omni.v_px);
     if (ray.ok()) {
       ray_o = *ray;
@@ -445,7 +444,9 @@ Status Pipeline::Process(const FrameInput& in, BallState& out) {
   const bool persp_merged =
       out.persp.found && !persp_cut && pred_persp_.valid && pred_persp_.radius_px > 0.f &&
       out.persp.radius_px > kMaxApparentSizeRatio * pred_persp_.radius_px + 1.0f;
-  if (out.persp.found && !persp_merged) {
+  if (persp_merged) out.persp = BallDetection{};  // not the ball: not reported as seen
+  if (out.persp.found) {
+    out.flags |= kFlagSeenPersp;
     auto ray = PerspPixelToRay(cal.persp, out.persp.u_px, out.persp.v_px);
     if (ray.ok()) {
       ray_p = *ray;
@@ -471,8 +472,12 @@ Status Pipeline::Process(const FrameInput& in, BallState& out) {
     persp_ray.origin = ray_p.origin;
     persp_ray.dir = ray_p.dir;
     persp_ray.camera = 1;
+    // A region smaller than the predicted ball is the visible part of a partly hidden ball: its
+    // centroid is off towards that part by up to the missing radius.
+    const float hidden_px =
+        pred_persp_.valid ? std::max(0.f, pred_persp_.radius_px - out.persp.radius_px) : 0.f;
     const float s = (config_.persp_sigma_px + config_.persp_sigma_per_radius * out.persp.radius_px +
-                     (persp_cut ? 0.5f * out.persp.radius_px : 0.f)) /
+                     (persp_cut ? 0.5f * out.persp.radius_px : 0.f) + hidden_px) /
                     std::max(cal.persp.fx, 1.0f);
     persp_ray.sigma_h_rad = persp_ray.sigma_v_rad = s;
     if (out.persp.radius_px > 0.5f && !persp_cut) {

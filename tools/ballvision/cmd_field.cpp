@@ -266,7 +266,8 @@ void ScoreBall(const BallState& s, const TruthRow& t, Figures& f) {
     const double tol = std::max(3.0, 1.5 * std::sqrt(std::max(t.area[c], 1.0) / kPi));
     const double e = std::hypot(det[c]->u_px - t.cu[c], det[c]->v_px - t.cv[c]);
     const bool on_ball = found && t.proj[c] && t.area[c] > 0 && e <= tol;
-    if (t.vis[c]) {
+    // Visible: at least 4 px across (as lut eval and issue #11 count recall).
+    if (t.vis[c] && 2.0 * std::sqrt(t.area[c] / kPi) >= 4.0) {
       ++f.ball_vis[c];
       if (on_ball) {
         ++f.ball_found[c];
