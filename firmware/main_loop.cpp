@@ -4,6 +4,7 @@
 #include <cstring>
 #include <new>
 
+#include "core/color_lut/color_model.h"
 #include "core/common/blob.h"
 #include "core/common/crc32.h"
 #include "hal/common/blob_store.h"
@@ -84,10 +85,19 @@ BlobState MainLoop::LoadLut() {
   return BlobState::kOk;
 }
 
+// No usable stored table: the built-in colour model's (red to orange balls in sun and shade) is
+// built in place, so a new board finds the ball before anything was uploaded or taught.
+BlobState MainLoop::UseBuiltInLut(BlobState stored) {
+  if (!BuildLut(BallColorModel{}, lut_).ok()) return stored;
+  status_.lut_id = lut_.Id();
+  return stored == BlobState::kCorrupt ? BlobState::kBuiltInCorrupt : BlobState::kBuiltInMissing;
+}
+
 Status MainLoop::Init() {
   status_ = protocol::StatusReport{};
   const BlobState cal = LoadCalibration();
-  const BlobState lut = LoadLut();
+  BlobState lut = LoadLut();
+  if (lut != BlobState::kOk) lut = UseBuiltInLut(lut);
   status_.calibration_state = static_cast<uint8_t>(cal);
   status_.lut_state = static_cast<uint8_t>(lut);
   InitPipeline();
@@ -101,7 +111,8 @@ Status MainLoop::Init() {
 
 void MainLoop::InitPipeline() {
   pipeline_ready_ = status_.calibration_state == static_cast<uint8_t>(BlobState::kOk) &&
-                    status_.lut_state == static_cast<uint8_t>(BlobState::kOk) &&
+                    status_.lut_state != static_cast<uint8_t>(BlobState::kMissing) &&
+                    status_.lut_state != static_cast<uint8_t>(BlobState::kCorrupt) &&
                     pipeline_.Init(calibration_, lut_, config_.pipeline).ok();
   if (pipeline_ready_) {
     status_.fault_flags &= ~kFaultPipelineNotReady;

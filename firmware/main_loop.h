@@ -134,6 +134,7 @@ class MainLoop {
  private:
   protocol::BlobState LoadCalibration();
   protocol::BlobState LoadLut();
+  protocol::BlobState UseBuiltInLut(protocol::BlobState stored);
   /// Loads the current blob of `kind` from an A/B slot pair (hal::BlobStore) into
   /// blob_scratch_ and points `blob` at it; returns the state for the status packet.
   protocol::BlobState ReadSlotPair(const int (&slots)[2], BlobKind kind, uint16_t max_version,

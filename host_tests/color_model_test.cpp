@@ -59,6 +59,36 @@ TEST(ColorModelTest, RedToOrangeBallsAreBallFromDeepShadeToSun) {
   }
 }
 
+TEST(ColorModelTest, ACellIsBallWhenHalfOfItsEightSampleColoursAreInTheModel) {
+  BallColorModel m;  // also a taught-looking one: narrow window, other floors
+  BallColorModel taught;
+  taught.hue_min_deg = 113.5f;
+  taught.hue_max_deg = 124.0f;
+  taught.chroma_min = 0.42f;
+  taught.y_min = 36;
+  for (const BallColorModel& model : {m, taught}) {
+    auto lut = std::make_unique<ColorLut>();
+    ASSERT_TRUE(BuildLut(model, *lut).ok());
+    int ball_cells = 0;
+    for (uint32_t i = 0; i < ColorLut::kEntries; ++i) {
+      uint8_t y, u, v;
+      ColorLut::CellCenter(i, y, u, v);
+      int votes = 0;
+      for (int k = 0; k < 8; ++k) {
+        votes += InBallColorModel(model, static_cast<uint8_t>(y - 8 + 4 + (k >> 2) * 8),
+                                  static_cast<uint8_t>(u - 2 + 1 + ((k >> 1) & 1) * 2),
+                                  static_cast<uint8_t>(v - 2 + 1 + (k & 1) * 2));
+      }
+      ASSERT_EQ(lut->at(i) == ColorClass::kBall, votes >= 4) << "cell " << i;
+      ball_cells += votes >= 4;
+      if (votes < 4) {
+        ASSERT_EQ(lut->at(i), BackgroundClass(y, u, v)) << "cell " << i;
+      }
+    }
+    EXPECT_GT(ball_cells, 50);
+  }
+}
+
 TEST(ColorModelTest, FieldLinesSkinWoodAndGreyAreNotBall) {
   const auto lut = DefaultTable();
   struct Case {

@@ -195,7 +195,8 @@ class MainLoopTest : public ::testing::Test {
     loop_->RunUntilFinished();
   }
   // A valid demo calibration and the rule LUT in storage: the pipeline runs (field features on).
-  void InstallDemoBlobs(uint32_t* calibration_id = nullptr, uint32_t* lut_id = nullptr) {
+  void InstallDemoBlobs(uint32_t* calibration_id = nullptr, uint32_t* lut_id = nullptr,
+                        bool with_lut = true) {
     static ColorLut lut;
     cli::FillRuleLut(lut);
     RigCalibration cal = cli::MakeDemoCalibration();
@@ -207,6 +208,7 @@ class MainLoopTest : public ::testing::Test {
     ASSERT_TRUE(cal_bytes.ok()) << cal_bytes.status().message();
     hal::BlobStore cal_store(storage_, 0, 1, BlobKind::kCalibration, kCalibrationBlobVersion);
     ASSERT_TRUE(cal_store.Save(std::span<const uint8_t>(blob, *cal_bytes), scratch_).ok());
+    if (!with_lut) return;
     const Result<size_t> lut_bytes = SerializeLut(lut, blob);
     ASSERT_TRUE(lut_bytes.ok());
     hal::BlobStore lut_store(storage_, 2, 3, BlobKind::kColorLut, kColorLutBlobVersion);
@@ -234,8 +236,8 @@ TEST_F(MainLoopTest, WithoutCalibrationEveryPairStillGivesOnePacketAndStatusSays
   EXPECT_EQ(d.first_status.frames_processed, 0u);
   EXPECT_EQ(d.last_status.frames_processed, 10u);
   EXPECT_EQ(d.last_status.calibration_state, static_cast<uint8_t>(protocol::BlobState::kMissing));
-  EXPECT_EQ(d.last_status.lut_state, static_cast<uint8_t>(protocol::BlobState::kMissing));
-  EXPECT_TRUE(d.last_status.fault_flags & kFaultPipelineNotReady);
+  EXPECT_EQ(d.last_status.lut_state, static_cast<uint8_t>(protocol::BlobState::kBuiltInMissing));
+  EXPECT_TRUE(d.last_status.fault_flags & kFaultPipelineNotReady) << "no calibration";
   EXPECT_EQ(d.last_status.frame_rate_mhz, 30000u);
   EXPECT_EQ(d.last_status.deadline_overruns, 0u);
   EXPECT_FALSE(loop_->pipeline_ready());
@@ -257,7 +259,7 @@ TEST_F(MainLoopTest, CorruptBlobsAreReportedAndTheLoopKeepsRunning) {
   const Decoded d = Decode(uart_.bytes());
   EXPECT_EQ(d.balls, 3);
   EXPECT_EQ(d.last_status.calibration_state, static_cast<uint8_t>(protocol::BlobState::kCorrupt));
-  EXPECT_EQ(d.last_status.lut_state, static_cast<uint8_t>(protocol::BlobState::kCorrupt));
+  EXPECT_EQ(d.last_status.lut_state, static_cast<uint8_t>(protocol::BlobState::kBuiltInCorrupt));
 }
 
 TEST_F(MainLoopTest, ValidLutBlobIsLoadedAndItsIdReported) {
@@ -276,6 +278,20 @@ TEST_F(MainLoopTest, ValidLutBlobIsLoadedAndItsIdReported) {
   EXPECT_EQ(d.last_status.lut_id, lut.Id());
   EXPECT_EQ(d.last_status.calibration_state, static_cast<uint8_t>(protocol::BlobState::kMissing));
   EXPECT_FALSE(loop_->pipeline_ready()) << "a LUT without calibration is not enough";
+}
+
+TEST_F(MainLoopTest, WithoutAStoredLutTheBuiltInColourModelRunsThePipeline) {
+  uint32_t calibration_id = 0, lut_id = 0;
+  InstallDemoBlobs(&calibration_id, &lut_id, /*with_lut=*/false);
+  camera_.AddRegular(3, 33333);
+  Run();
+  ASSERT_TRUE(loop_->pipeline_ready());
+  const Decoded d = Decode(uart_.bytes());
+  EXPECT_EQ(d.last_status.lut_state, static_cast<uint8_t>(protocol::BlobState::kBuiltInMissing));
+  static ColorLut builtin;
+  ASSERT_TRUE(BuildLut(BallColorModel{}, builtin).ok());
+  EXPECT_EQ(d.last_status.lut_id, builtin.Id());
+  EXPECT_EQ(d.last_status.fault_flags & kFaultPipelineNotReady, 0u);
 }
 
 TEST_F(MainLoopTest, WithCalibrationAndLutThePipelineRunsOnEveryPair) {
@@ -583,12 +599,12 @@ TEST_F(MainLoopCommandsTest, CorruptUploadIsRefusedAndNothingChanges) {
   Replies(acks, errors, statuses, code);
   EXPECT_EQ(errors, 2);
   EXPECT_EQ(code, static_cast<uint8_t>(protocol::CommandError::kVerifyFailed));
-  EXPECT_EQ(loop_->status().lut_state, static_cast<uint8_t>(protocol::BlobState::kMissing));
+  EXPECT_EQ(loop_->status().lut_state, static_cast<uint8_t>(protocol::BlobState::kBuiltInMissing));
   loop_->SendStatus();  // the counters are refreshed with every status packet
   EXPECT_EQ(loop_->status().command_errors, 2u);
   MainLoop reboot(camera_, uart_, clock_, storage_, scratch_);
   ASSERT_TRUE(reboot.Init().ok());
-  EXPECT_EQ(reboot.status().lut_state, static_cast<uint8_t>(protocol::BlobState::kMissing));
+  EXPECT_EQ(reboot.status().lut_state, static_cast<uint8_t>(protocol::BlobState::kBuiltInMissing));
 }
 
 TEST_F(MainLoopCommandsTest, ParametersAndStatusRequests) {

@@ -270,6 +270,22 @@ class Sequences(Base):
         lut = self.path("t.lut")
         self.refused(["lut", "train", "--out", lut], 2, "no training source", [lut])
 
+    def test_lut_teach_refusals_keep_the_old_table(self):
+        lut = self.path("t.lut")
+        write(lut, b"old table")
+        s = self.seq()  # one grey persp frame: nothing ball-coloured anywhere
+        self.refused(["lut", "teach", s, "--out", lut], 1, "the ball was found in no frame", [lut])
+        self.refused(["lut", "teach", s, "--out", lut, "--click", "0:persp:300,200"], 1,
+                     "no ball-coloured region at the click (persp frame 0, pixel 300, 200)", [lut])
+        self.refused(["lut", "teach", s, "--out", lut, "--click", "7:persp:300,200"], 1,
+                     "the click's frame 7 is not in", [lut])
+        self.refused(["lut", "teach", s, "--out", lut, "--click", "0:side:3,4"], 2,
+                     "camera 'side', expected omni or persp", [lut])
+        self.refused(["lut", "teach", s, "--out", lut, "--click", "0:persp"], 2,
+                     "expected INDEX:CAMERA:U,V", [lut])
+        self.refused(["lut", "teach", "--out", lut], 2, "give a sequence SEQ or annotated", [lut])
+        self.refused(["lut", "teach", self.path("nope"), "--out", lut], 1, "frames.csv", [lut])
+
     def test_numbers_on_the_command_line(self):
         s = self.seq()
         for args, msg in ((["listen", GOLDEN, "--baud", "12x"], "--baud: got '12x'"),

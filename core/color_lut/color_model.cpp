@@ -26,20 +26,22 @@ struct Prepared {
         y_min(m.y_min),
         y_max(m.y_max) {}
 
+  // Inside the hue window (narrower than 180 degrees): left of its first edge, right of its last.
+  bool InWindow(float du, float dv) const {
+    return lo_x * dv - lo_y * du >= 0.0f && du * hi_y - dv * hi_x >= 0.0f;
+  }
+  float Floor(int y) const {
+    if (y >= bright_y_end) return cmin_bright;
+    if (y <= bright_y) return cmin;
+    return cmin + (cmin_bright - cmin) * static_cast<float>(y - bright_y) /
+                      static_cast<float>(bright_y_end - bright_y);
+  }
   bool Contains(int y, int u, int v) const {
     if (y < y_min || y > y_max) return false;
     const float du = static_cast<float>(u - 128), dv = static_cast<float>(v - 128);
-    // Inside the window (narrower than 180 degrees): left of its first edge, right of its last.
-    if (lo_x * dv - lo_y * du < 0.0f || du * hi_y - dv * hi_x < 0.0f) return false;
-    float floor = cmin;
-    if (y >= bright_y_end) {
-      floor = cmin_bright;
-    } else if (y > bright_y) {
-      floor = cmin + (cmin_bright - cmin) * static_cast<float>(y - bright_y) /
-                         static_cast<float>(bright_y_end - bright_y);
-    }
-    const float c2 = du * du + dv * dv, fy = static_cast<float>(y);
-    return c2 >= floor * floor * fy * fy && c2 <= cmax * cmax * fy * fy;
+    if (!InWindow(du, dv)) return false;
+    const float c2 = du * du + dv * dv, fy = static_cast<float>(y), f = Floor(y);
+    return c2 >= f * f * fy * fy && c2 <= cmax * cmax * fy * fy;
   }
 };
 
@@ -90,22 +92,47 @@ ColorClass BackgroundClass(uint8_t y, uint8_t u, uint8_t v) {
 Status BuildLut(const BallColorModel& m, ColorLut& out) {
   BV_TRY(ValidateBallColorModel(m));
   const Prepared p(m);
+  constexpr int kYCells = 1 << ColorLut::kYBits, kCCells = 1 << ColorLut::kUBits;
   constexpr int kYStep = 1 << (8 - ColorLut::kYBits), kCStep = 1 << (8 - ColorLut::kUBits);
   static_assert(ColorLut::kUBits == ColorLut::kVBits);
-  for (uint32_t i = 0; i < ColorLut::kEntries; ++i) {
-    uint8_t yc, uc, vc;
-    ColorLut::CellCenter(i, yc, uc, vc);
-    const int y0 = yc - kYStep / 2, u0 = uc - kCStep / 2, v0 = vc - kCStep / 2;
-    int votes = 0;
-    for (int a = 0; a < 2; ++a) {
-      for (int b = 0; b < 2; ++b) {
-        for (int c = 0; c < 2; ++c) {
-          votes += p.Contains(y0 + kYStep / 4 + a * kYStep / 2, u0 + kCStep / 4 + b * kCStep / 2,
-                              v0 + kCStep / 4 + c * kCStep / 2);
+  // Two Y samples per cell; their chroma bounds (squared, times Y^2) once for the whole table.
+  float lo2[2 * kYCells], hi2[2 * kYCells];
+  for (int k = 0; k < 2 * kYCells; ++k) {
+    const int y = kYStep / 4 + k * kYStep / 2;
+    const float f = p.Floor(y), fy = static_cast<float>(y);
+    const bool in_range = y >= p.y_min && y <= p.y_max;
+    lo2[k] = in_range ? f * f * fy * fy : 1e30f;
+    hi2[k] = p.cmax * p.cmax * fy * fy;
+  }
+  for (int cu = 0; cu < kCCells; ++cu) {
+    for (int cv = 0; cv < kCCells; ++cv) {
+      // The cell's 4 chroma samples: in the hue window or not, and their squared chroma.
+      float c2[4];
+      bool hue_in[4];
+      int any = 0;
+      for (int k = 0; k < 4; ++k) {
+        const float du = static_cast<float>(cu * kCStep + kCStep / 4 + (k >> 1) * kCStep / 2 - 128);
+        const float dv = static_cast<float>(cv * kCStep + kCStep / 4 + (k & 1) * kCStep / 2 - 128);
+        hue_in[k] = p.InWindow(du, dv);
+        c2[k] = du * du + dv * dv;
+        any += hue_in[k];
+      }
+      for (int cy = 0; cy < kYCells; ++cy) {
+        const uint32_t index = static_cast<uint32_t>(cy) << (ColorLut::kUBits + ColorLut::kVBits) |
+                               static_cast<uint32_t>(cu) << ColorLut::kVBits |
+                               static_cast<uint32_t>(cv);
+        int votes = 0;
+        if (any >= 2) {  // at least 4 of 8 votes needs 2 of the 4 chroma samples in the window
+          for (int a = 0; a < 2; ++a) {
+            const float lo = lo2[2 * cy + a], hi = hi2[2 * cy + a];
+            for (int k = 0; k < 4; ++k) votes += hue_in[k] && c2[k] >= lo && c2[k] <= hi;
+          }
         }
+        uint8_t yc, uc, vc;
+        ColorLut::CellCenter(index, yc, uc, vc);
+        out.Set(index, votes >= 4 ? ColorClass::kBall : BackgroundClass(yc, uc, vc));
       }
     }
-    out.Set(i, votes >= 4 ? ColorClass::kBall : BackgroundClass(yc, uc, vc));
   }
   return Status::Ok();
 }

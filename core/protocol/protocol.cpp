@@ -229,7 +229,7 @@ Status ParseStatus(std::span<const uint8_t> payload, StatusReport& out) {
                       &s.rx_line_errors,    &s.feature_packets_dropped,
                       &s.line_points_unsent};
   for (uint32_t* f : tail) *f = r.U32();
-  if (s.calibration_state > 2 || s.lut_state > 2) {
+  if (s.calibration_state > 2 || s.lut_state > 4) {
     return Status(StatusCode::kInvalidArgument, "status: unknown blob state");
   }
   out = s;

@@ -162,7 +162,15 @@ struct GoalsReport {
   GoalMm goals[kMaxGoalsPerPacket];
 };
 
-enum class BlobState : uint8_t { kOk = 0, kMissing = 1, kCorrupt = 2 };
+// kBuiltIn*: lut_state only: no usable stored table (missing / corrupt), the built-in colour
+// model's table (core/color_lut/color_model.h) is in use.
+enum class BlobState : uint8_t {
+  kOk = 0,
+  kMissing = 1,
+  kCorrupt = 2,
+  kBuiltInMissing = 3,
+  kBuiltInCorrupt = 4,
+};
 
 // --- encoding: whole wire frames (COBS + delimiter), ready for Uart::Write ---
 

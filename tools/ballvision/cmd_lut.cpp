@@ -28,12 +28,13 @@ constexpr char kLutUsage[] =
     "       ballvision lut eval --lut LUT.bin [sources] [--center U,V] [--no-track] [--verbose]\n"
     "                           [--regions]  (every traced region with its shape measures)\n"
     "                           [--annotate DIR]  (debug pictures of every evaluated frame)\n"
-    "       (--lut builtin: the built-in colour model's table)\n"
     "                           [--min-roundness R]  (of a ball region, 0..1)\n"
+    "                           (--lut builtin: the built-in colour model's table)\n"
     "       ballvision lut teach SEQ --out LUT.bin [--click INDEX:omni|persp:U,V]\n"
     "                           [--camera omni|persp|both] [--every N] [--center U,V]\n"
     "                           (fits the ball colour model to the ball across the sequence;\n"
     "                            without --click the ball must be the moving ball-coloured blob)\n"
+    "       ballvision lut teach --boxes FILE --images DIR [--split all|even|odd] --out LUT.bin\n"
     "       ballvision lut show LUT.bin\n"
     "sources (repeatable):\n"
     "  --sim DIR            rendered sequence with truth.csv (ball silhouettes from the truth)\n"
@@ -402,11 +403,14 @@ int Show(const std::string& path) {
 }
 
 int TeachCmd(int argc, char** argv) {
-  std::string seq, out, click, camera = "both";
+  std::string seq, out, click, camera = "both", boxes, images, split = "all";
   int every = 1;
   double cu = 314.2, cv = 244.1;
   ArgParser p("ballvision lut teach", kLutUsage);
-  p.Positional("SEQ", seq)
+  p.Positional("SEQ", seq, /*required=*/false)
+      .Text("--boxes", boxes)
+      .Text("--images", images)
+      .Text("--split", split)
       .Text("--out", out)
       .Required("--out")
       .Text("--click", click)
@@ -416,6 +420,13 @@ int TeachCmd(int argc, char** argv) {
         return ArgNumberPair("--center", v, ',', 0, 4096, cu, cv, error);
       });
   if (const int rc = p.Parse(argc, argv); rc >= 0) return rc;
+  if (seq.empty() == boxes.empty()) {
+    return p.UsageError("give a sequence SEQ or annotated stills --boxes FILE --images DIR");
+  }
+  if (!boxes.empty() && images.empty()) return p.UsageError("--boxes needs --images DIR");
+  if (split != "all" && split != "even" && split != "odd") {
+    return p.UsageError("--split: got '" + split + "', expected all, even or odd");
+  }
   lut::TeachOptions opt;
   opt.every = every;
   if (camera != "omni" && camera != "persp" && camera != "both") {
@@ -458,7 +469,15 @@ int TeachCmd(int argc, char** argv) {
   setup.persp = ReferencePerspScanConfig();
   InstallInterruptHandlers();
   lut::TeachReport r;
-  if (!lut::TeachSequence(seq, setup, opt, r, err)) {
+  bool taught = false;
+  if (!boxes.empty()) {
+    std::vector<lut::BoxImage> stills;
+    if (!SelectBoxes({boxes, images, split}, stills)) return 1;
+    taught = lut::TeachBoxes(stills, opt.start, r, err);
+  } else {
+    taught = lut::TeachSequence(seq, setup, opt, r, err);
+  }
+  if (!taught) {
     std::fprintf(stderr, "ballvision lut teach: %s; %s not written\n", err.c_str(), out.c_str());
     return 1;
   }

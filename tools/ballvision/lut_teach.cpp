@@ -14,6 +14,7 @@ namespace bv::lut {
 namespace {
 
 constexpr double kRadToDeg = 57.29577951308232;
+constexpr double kDegToRad = 1.0 / kRadToDeg;
 constexpr float kGrowHueMarginDeg = 10.0f;  // the grow test is the start window widened by this
 constexpr float kGrowChromaMin = 0.10f;     // ... and this relative chroma floor
 constexpr size_t kMinFitPixels = 200;
@@ -22,6 +23,12 @@ constexpr int kBackgroundStride = 8;  // background sampled every 8th pixel of e
 constexpr double kBackgroundSampleWeight = kBackgroundStride * kBackgroundStride;
 
 double HueDeg(const Yuv& p) { return std::atan2(p.v - 128.0, p.u - 128.0) * kRadToDeg; }
+// h + k * 360 within (centre - 180, centre + 180]: hue windows may cross +-180 deg (yellow).
+double UnwrapNear(double h, double centre) {
+  while (h - centre > 180.0) h -= 360.0;
+  while (h - centre <= -180.0) h += 360.0;
+  return h;
+}
 double RelChroma(const Yuv& p) {
   return std::hypot(p.u - 128.0, p.v - 128.0) / std::max(1.0, static_cast<double>(p.y));
 }
@@ -38,7 +45,7 @@ struct GrowTest {
   double hue_lo, hue_hi;
   bool operator()(const Yuv& p) const {
     if (p.y < 12 || RelChroma(p) < kGrowChromaMin) return false;
-    const double h = HueDeg(p);
+    const double h = UnwrapNear(HueDeg(p), 0.5 * (hue_lo + hue_hi));
     return h >= hue_lo && h <= hue_hi;
   }
 };
@@ -158,11 +165,17 @@ bool FitBallColorModel(const std::vector<Yuv>& ball, const BallColorModel& start
     return false;
   }
   std::vector<double> hue, chroma_dark, chroma_bright, chroma_all, luma;
+  double sum_cos = 0, sum_sin = 0;
   for (const Yuv& p : ball) {
     const double c = RelChroma(p);
     luma.push_back(p.y);
     chroma_all.push_back(c);
-    if (c >= 0.25) hue.push_back(HueDeg(p));
+    if (c >= 0.25) {
+      const double h = HueDeg(p) * kDegToRad;
+      hue.push_back(h);
+      sum_cos += std::cos(h);
+      sum_sin += std::sin(h);
+    }
     if (p.y <= start.bright_y) chroma_dark.push_back(c);
     if (p.y >= start.bright_y_end) chroma_bright.push_back(c);
   }
@@ -173,6 +186,9 @@ bool FitBallColorModel(const std::vector<Yuv>& ball, const BallColorModel& start
   BallColorModel m = start;
   // Hue: the central 96 % with a margin for what the sequence did not show (4 deg ~ the spread
   // of one surface's pixels from sensor noise at Y 60).
+  // Percentiles around the circular mean, so a window across +-180 deg stays one interval.
+  const double mean = std::atan2(sum_sin, sum_cos) * kRadToDeg;
+  for (double& h : hue) h = UnwrapNear(h * kRadToDeg, mean);
   const double h_lo = Percentile(hue, 0.02) - 4.0, h_hi = Percentile(hue, 0.98) + 4.0;
   const double mid = 0.5 * (h_lo + h_hi), half = std::max(8.0, 0.5 * (h_hi - h_lo));
   m.hue_min_deg = static_cast<float>(mid - half);
@@ -184,7 +200,10 @@ bool FitBallColorModel(const std::vector<Yuv>& ball, const BallColorModel& start
   m.chroma_min_bright =
       std::min(m.chroma_min, static_cast<float>(floor_of(chroma_bright, start.chroma_min_bright)));
   m.chroma_max = static_cast<float>(std::clamp(1.3 * Percentile(chroma_all, 0.995), 1.0, 4.0));
-  m.y_min = static_cast<uint8_t>(std::clamp(Percentile(luma, 0.005) - 8.0, 12.0, 96.0));
+  // Luma is what shade changes: the floor only ever goes down from the start model's (a sequence
+  // that never showed the ball in deep shade must not exclude it there).
+  m.y_min = static_cast<uint8_t>(
+      std::clamp(std::min<double>(start.y_min, Percentile(luma, 0.005) - 8.0), 12.0, 96.0));
   const Status st = ValidateBallColorModel(m);
   if (!st.ok()) {
     why = st.message();
@@ -197,11 +216,12 @@ bool FitBallColorModel(const std::vector<Yuv>& ball, const BallColorModel& start
 void NarrowAgainstBackground(const std::vector<Yuv>& ball, const std::vector<Yuv>& background,
                              double background_weight, BallColorModel& m) {
   // Hue of every pixel the model takes apart from its hue window (the window is what moves).
-  const auto hues = [&m](const std::vector<Yuv>& px) {
+  const double centre = 0.5 * (m.hue_min_deg + m.hue_max_deg);
+  const auto hues = [&m, centre](const std::vector<Yuv>& px) {
     std::vector<double> h;
     for (const Yuv& p : px) {
       BallColorModel at = m;
-      const double hp = HueDeg(p);
+      const double hp = UnwrapNear(HueDeg(p), centre);
       at.hue_min_deg = static_cast<float>(hp - 0.5);
       at.hue_max_deg = static_cast<float>(hp + 0.5);
       if (InBallColorModel(at, p.y, p.u, p.v)) h.push_back(hp);
@@ -343,6 +363,35 @@ bool CollectCamera(const host::Sequence& seq, const FinderSetup& setup, const Te
   return true;
 }
 
+// The fitted model against the background: refused when it takes the field's or lines' pixels.
+bool CheckAgainstField(size_t ball_pixels, const std::vector<Yuv>& background, TeachReport& out,
+                       std::string& error) {
+  out.ball_pixels = ball_pixels;
+  out.background = background.size();
+  size_t field = 0, field_taken = 0, taken = 0;
+  for (const Yuv& p : background) {
+    const bool is_ball = InBallColorModel(out.model, p.y, p.u, p.v);
+    taken += is_ball;
+    const ColorClass bg = BackgroundClass(p.y, p.u, p.v);
+    if (bg == ColorClass::kField || bg == ColorClass::kLine) {
+      ++field;
+      field_taken += is_ball;
+    }
+  }
+  out.field_taken = field ? static_cast<double>(field_taken) / field : 0.0;
+  out.background_taken = background.empty() ? 0.0 : static_cast<double>(taken) / background.size();
+  if (out.field_taken > kMaxFieldTaken) {
+    char buf[160];
+    std::snprintf(buf, sizeof buf,
+                  "the taught colour would take %.2f %% of the field's and lines' pixels "
+                  "(limit %.1f %%): refused",
+                  100.0 * out.field_taken, 100.0 * kMaxFieldTaken);
+    error = buf;
+    return false;
+  }
+  return true;
+}
+
 }  // namespace
 
 bool TeachSequence(const std::string& dir, const FinderSetup& setup, const TeachOptions& opt,
@@ -386,31 +435,43 @@ bool TeachSequence(const std::string& dir, const FinderSetup& setup, const Teach
   out.frames[0] = got.frames[0];
   out.frames[1] = got.frames[1];
   out.first_moves_px = got.moved_px;
-  out.ball_pixels = got.ball.size();
-  out.background = got.background.size();
-  size_t field = 0, field_taken = 0, taken = 0;
-  for (const Yuv& p : got.background) {
-    const bool is_ball = InBallColorModel(out.model, p.y, p.u, p.v);
-    taken += is_ball;
-    const ColorClass bg = BackgroundClass(p.y, p.u, p.v);
-    if (bg == ColorClass::kField || bg == ColorClass::kLine) {
-      ++field;
-      field_taken += is_ball;
+  return CheckAgainstField(got.ball.size(), got.background, out, error);
+}
+
+bool TeachBoxes(const std::vector<BoxImage>& images, const BallColorModel& start, TeachReport& out,
+                std::string& error) {
+  out = TeachReport{};
+  std::vector<Yuv> ball, background;
+  for (const BoxImage& bi : images) {
+    Image img;
+    if (!LoadImage(bi.path, img, error)) return false;
+    const YuyvImage view = img.view();
+    for (int v = 0; v < img.height; ++v) {
+      for (int u = 0; u < img.width; ++u) {
+        bool in_ball = false, near_box = false;
+        for (const Trainer::Box& b : bi.balls) {
+          const float cu = 0.5f * (b.u0 + b.u1), cv = 0.5f * (b.v0 + b.v1);
+          const float ru = 0.4f * (b.u1 - b.u0), rv = 0.4f * (b.v1 - b.v0);
+          const float du = (u - cu) / std::max(ru, 0.5f), dv = (v - cv) / std::max(rv, 0.5f);
+          in_ball |= du * du + dv * dv <= 1.0f;
+          near_box |= u >= b.u0 - 4 && u <= b.u1 + 4 && v >= b.v0 - 4 && v <= b.v1 + 4;
+        }
+        if (in_ball) {
+          ball.push_back(view.at(u, v));
+        } else if (!near_box && v % kBackgroundStride == 3 && u % kBackgroundStride == 0) {
+          background.push_back(view.at(u, v));
+        }
+      }
     }
+    out.frames[1] += bi.balls.empty() ? 0 : 1;
   }
-  out.field_taken = field ? static_cast<double>(field_taken) / field : 0.0;
-  out.background_taken =
-      got.background.empty() ? 0.0 : static_cast<double>(taken) / got.background.size();
-  if (out.field_taken > kMaxFieldTaken) {
-    char buf[160];
-    std::snprintf(buf, sizeof buf,
-                  "the taught colour would take %.2f %% of the field's and lines' pixels "
-                  "(limit %.1f %%): refused",
-                  100.0 * out.field_taken, 100.0 * kMaxFieldTaken);
-    error = buf;
+  std::string why;
+  if (!FitBallColorModel(ball, start, out.model, why)) {
+    error = why;
     return false;
   }
-  return true;
+  NarrowAgainstBackground(ball, background, kBackgroundSampleWeight, out.model);
+  return CheckAgainstField(ball.size(), background, out, error);
 }
 
 }  // namespace bv::lut

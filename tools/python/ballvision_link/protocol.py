@@ -292,7 +292,7 @@ def parse_status(seq: int, payload: bytes) -> Optional[StatusReport]:
         return None
     v = list(_STATUS.unpack(payload))
     v[2] = v[2] / 1000.0  # millihertz -> Hz
-    if v[13] > 2 or v[14] > 2:
+    if v[13] > 2 or v[14] > 4:
         return None
     del v[15]  # reserved
     return StatusReport(seq, *v)

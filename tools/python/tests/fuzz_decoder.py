@@ -48,7 +48,7 @@ def check(data, rng):
             if m.found:
                 assert all(math.isfinite(v) for v in (m.x, m.y, m.z, m.vx, m.vy, m.vz))
         elif isinstance(m, StatusReport):
-            assert 0 <= m.calibration_state <= 2 and 0 <= m.lut_state <= 2
+            assert 0 <= m.calibration_state <= 2 and 0 <= m.lut_state <= 4
         else:
             assert len(m[2]) <= MAX_PAYLOAD
     chunked = Decoder()
