@@ -7,47 +7,41 @@ namespace {
 
 constexpr float kDegToRad = 3.14159265f / 180.0f;
 
-// The model with its trigonometry done once, so a pixel costs multiplies and compares only.
-struct Prepared {
-  float lo_x, lo_y, hi_x, hi_y;  // unit vectors of the hue window's edges in (U, V)
-  float cmin, cmin_bright, cmax;
-  int bright_y, bright_y_end, y_min, y_max;
-
-  explicit Prepared(const BallColorModel& m)
-      : lo_x(std::cos(m.hue_min_deg * kDegToRad)),
-        lo_y(std::sin(m.hue_min_deg * kDegToRad)),
-        hi_x(std::cos(m.hue_max_deg * kDegToRad)),
-        hi_y(std::sin(m.hue_max_deg * kDegToRad)),
-        cmin(m.chroma_min),
-        cmin_bright(m.chroma_min_bright),
-        cmax(m.chroma_max),
-        bright_y(m.bright_y),
-        bright_y_end(m.bright_y_end),
-        y_min(m.y_min),
-        y_max(m.y_max) {}
-
-  // Inside the hue window (narrower than 180 degrees): left of its first edge, right of its last.
-  bool InWindow(float du, float dv) const {
-    return lo_x * dv - lo_y * du >= 0.0f && du * hi_y - dv * hi_x >= 0.0f;
-  }
-  float Floor(int y) const {
-    if (y >= bright_y_end) return cmin_bright;
-    if (y <= bright_y) return cmin;
-    return cmin + (cmin_bright - cmin) * static_cast<float>(y - bright_y) /
-                      static_cast<float>(bright_y_end - bright_y);
-  }
-  bool Contains(int y, int u, int v) const {
-    if (y < y_min || y > y_max) return false;
-    const float du = static_cast<float>(u - 128), dv = static_cast<float>(v - 128);
-    if (!InWindow(du, dv)) return false;
-    const float c2 = du * du + dv * dv, fy = static_cast<float>(y), f = Floor(y);
-    return c2 >= f * f * fy * fy && c2 <= cmax * cmax * fy * fy;
-  }
-};
-
 bool Finite(float x) { return std::isfinite(x); }
 
 }  // namespace
+
+BallColorTest::BallColorTest(const BallColorModel& m)
+    : lo_x_(std::cos(m.hue_min_deg * kDegToRad)),
+      lo_y_(std::sin(m.hue_min_deg * kDegToRad)),
+      hi_x_(std::cos(m.hue_max_deg * kDegToRad)),
+      hi_y_(std::sin(m.hue_max_deg * kDegToRad)),
+      cmin_(m.chroma_min),
+      cmin_bright_(m.chroma_min_bright),
+      cmax_(m.chroma_max),
+      bright_y_(m.bright_y),
+      bright_y_end_(m.bright_y_end),
+      y_min_(m.y_min),
+      y_max_(m.y_max) {}
+
+float BallColorTest::ChromaFloor(int y) const {
+  if (y >= bright_y_end_) return cmin_bright_;
+  if (y <= bright_y_) return cmin_;
+  return cmin_ + (cmin_bright_ - cmin_) * static_cast<float>(y - bright_y_) /
+                     static_cast<float>(bright_y_end_ - bright_y_);
+}
+
+bool BallColorTest::ContainsIgnoringHue(int y, int u, int v) const {
+  if (y < y_min_ || y > y_max_) return false;
+  const float du = static_cast<float>(u - 128), dv = static_cast<float>(v - 128);
+  const float c2 = du * du + dv * dv, fy = static_cast<float>(y), f = ChromaFloor(y);
+  return c2 >= f * f * fy * fy && c2 <= cmax_ * cmax_ * fy * fy;
+}
+
+bool BallColorTest::Contains(int y, int u, int v) const {
+  return InWindow(static_cast<float>(u - 128), static_cast<float>(v - 128)) &&
+         ContainsIgnoringHue(y, u, v);
+}
 
 Status ValidateBallColorModel(const BallColorModel& m) {
   if (!Finite(m.hue_min_deg) || !Finite(m.hue_max_deg) || !Finite(m.chroma_min) ||
@@ -75,7 +69,7 @@ Status ValidateBallColorModel(const BallColorModel& m) {
 }
 
 bool InBallColorModel(const BallColorModel& m, uint8_t y, uint8_t u, uint8_t v) {
-  return Prepared(m).Contains(y, u, v);
+  return BallColorTest(m).Contains(y, u, v);
 }
 
 ColorClass BackgroundClass(uint8_t y, uint8_t u, uint8_t v) {
@@ -91,7 +85,7 @@ ColorClass BackgroundClass(uint8_t y, uint8_t u, uint8_t v) {
 
 Status BuildLut(const BallColorModel& m, ColorLut& out) {
   BV_TRY(ValidateBallColorModel(m));
-  const Prepared p(m);
+  const BallColorTest p(m);
   constexpr int kYCells = 1 << ColorLut::kYBits, kCCells = 1 << ColorLut::kUBits;
   constexpr int kYStep = 1 << (8 - ColorLut::kYBits), kCStep = 1 << (8 - ColorLut::kUBits);
   static_assert(ColorLut::kUBits == ColorLut::kVBits);
@@ -99,10 +93,10 @@ Status BuildLut(const BallColorModel& m, ColorLut& out) {
   float lo2[2 * kYCells], hi2[2 * kYCells];
   for (int k = 0; k < 2 * kYCells; ++k) {
     const int y = kYStep / 4 + k * kYStep / 2;
-    const float f = p.Floor(y), fy = static_cast<float>(y);
-    const bool in_range = y >= p.y_min && y <= p.y_max;
+    const float f = p.ChromaFloor(y), fy = static_cast<float>(y);
+    const bool in_range = y >= m.y_min && y <= m.y_max;
     lo2[k] = in_range ? f * f * fy * fy : 1e30f;
-    hi2[k] = p.cmax * p.cmax * fy * fy;
+    hi2[k] = m.chroma_max * m.chroma_max * fy * fy;
   }
   for (int cu = 0; cu < kCCells; ++cu) {
     for (int cv = 0; cv < kCCells; ++cv) {

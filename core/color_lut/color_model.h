@@ -31,6 +31,26 @@ struct BallColorModel {
 /// bounds outside (0, 4] or crossed, Y bounds crossed.
 Status ValidateBallColorModel(const BallColorModel& m);
 
+/// The model prepared for evaluation pixel by pixel (trigonometry once): teaching and tests; the
+/// pipeline uses the table.
+class BallColorTest {
+ public:
+  explicit BallColorTest(const BallColorModel& m);
+  bool Contains(int y, int u, int v) const;
+  /// Every bound but the hue window (luma range, relative chroma floor and ceiling).
+  bool ContainsIgnoringHue(int y, int u, int v) const;
+  /// Inside the hue window (narrower than 180 deg): left of its first edge, right of its last.
+  bool InWindow(float du, float dv) const {
+    return lo_x_ * dv - lo_y_ * du >= 0.0f && du * hi_y_ - dv * hi_x_ >= 0.0f;
+  }
+  float ChromaFloor(int y) const;
+
+ private:
+  float lo_x_, lo_y_, hi_x_, hi_y_;  // unit vectors of the hue window's edges in (U, V)
+  float cmin_, cmin_bright_, cmax_;
+  int bright_y_, bright_y_end_, y_min_, y_max_;
+};
+
 /// The model evaluated on one pixel (host tools and tests; the device uses the table).
 bool InBallColorModel(const BallColorModel& m, uint8_t y, uint8_t u, uint8_t v);
 

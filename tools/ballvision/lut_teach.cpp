@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <memory>
 
+#include "core/color_lut/color_teach.h"
 #include "core/detect/detect.h"
 #include "core/scanline/scanline.h"
 #include "hal/host/sequence.h"
@@ -14,12 +15,9 @@ namespace bv::lut {
 namespace {
 
 constexpr double kRadToDeg = 57.29577951308232;
-constexpr double kDegToRad = 1.0 / kRadToDeg;
 constexpr float kGrowHueMarginDeg = 10.0f;  // the grow test is the start window widened by this
 constexpr float kGrowChromaMin = 0.10f;     // ... and this relative chroma floor
-constexpr size_t kMinFitPixels = 200;
-constexpr double kMaxFieldTaken = 0.002;
-constexpr int kBackgroundStride = 8;  // background sampled every 8th pixel of every 8th row
+constexpr int kBackgroundStride = 8;        // background sampled every 8th pixel of every 8th row
 constexpr double kBackgroundSampleWeight = kBackgroundStride * kBackgroundStride;
 
 double HueDeg(const Yuv& p) { return std::atan2(p.v - 128.0, p.u - 128.0) * kRadToDeg; }
@@ -31,13 +29,6 @@ double UnwrapNear(double h, double centre) {
 }
 double RelChroma(const Yuv& p) {
   return std::hypot(p.u - 128.0, p.v - 128.0) / std::max(1.0, static_cast<double>(p.y));
-}
-
-double Percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0;
-  const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * static_cast<double>(v.size())));
-  std::nth_element(v.begin(), v.begin() + static_cast<ptrdiff_t>(k), v.end());
-  return v[k];
 }
 
 // The relaxed test the ball is grown with: the start model's hue window widened, low chroma floor.
@@ -159,105 +150,21 @@ bool Track(const Pass& p, const std::vector<size_t>& order, const Prediction* st
 
 bool FitBallColorModel(const std::vector<Yuv>& ball, const BallColorModel& start,
                        BallColorModel& out, std::string& why) {
-  if (ball.size() < kMinFitPixels) {
-    why = "only " + std::to_string(ball.size()) + " ball pixels to learn from (need " +
-          std::to_string(kMinFitPixels) + ")";
-    return false;
-  }
-  std::vector<double> hue, chroma_dark, chroma_bright, chroma_all, luma;
-  double sum_cos = 0, sum_sin = 0;
-  for (const Yuv& p : ball) {
-    const double c = RelChroma(p);
-    luma.push_back(p.y);
-    chroma_all.push_back(c);
-    if (c >= 0.25) {
-      const double h = HueDeg(p) * kDegToRad;
-      hue.push_back(h);
-      sum_cos += std::cos(h);
-      sum_sin += std::sin(h);
-    }
-    if (p.y <= start.bright_y) chroma_dark.push_back(c);
-    if (p.y >= start.bright_y_end) chroma_bright.push_back(c);
-  }
-  if (hue.size() < kMinFitPixels / 2) {
-    why = "the taught pixels are nearly grey (relative chroma below 0.25): not a ball colour";
-    return false;
-  }
-  BallColorModel m = start;
-  // Hue: the central 96 % with a margin for what the sequence did not show (4 deg ~ the spread
-  // of one surface's pixels from sensor noise at Y 60).
-  // Percentiles around the circular mean, so a window across +-180 deg stays one interval.
-  const double mean = std::atan2(sum_sin, sum_cos) * kRadToDeg;
-  for (double& h : hue) h = UnwrapNear(h * kRadToDeg, mean);
-  const double h_lo = Percentile(hue, 0.02) - 4.0, h_hi = Percentile(hue, 0.98) + 4.0;
-  const double mid = 0.5 * (h_lo + h_hi), half = std::max(8.0, 0.5 * (h_hi - h_lo));
-  m.hue_min_deg = static_cast<float>(mid - half);
-  m.hue_max_deg = static_cast<float>(mid + half);
-  const auto floor_of = [](const std::vector<double>& c, double fallback) {
-    return c.size() < 50 ? fallback : std::clamp(0.85 * Percentile(c, 0.03), 0.12, 0.5);
-  };
-  m.chroma_min = static_cast<float>(floor_of(chroma_dark, start.chroma_min));
-  m.chroma_min_bright =
-      std::min(m.chroma_min, static_cast<float>(floor_of(chroma_bright, start.chroma_min_bright)));
-  m.chroma_max = static_cast<float>(std::clamp(1.3 * Percentile(chroma_all, 0.995), 1.0, 4.0));
-  // Luma is what shade changes: the floor only ever goes down from the start model's (a sequence
-  // that never showed the ball in deep shade must not exclude it there).
-  m.y_min = static_cast<uint8_t>(
-      std::clamp(std::min<double>(start.y_min, Percentile(luma, 0.005) - 8.0), 12.0, 96.0));
-  const Status st = ValidateBallColorModel(m);
-  if (!st.ok()) {
-    why = st.message();
-    return false;
-  }
-  out = m;
-  return true;
+  auto stats = std::make_unique<BallColorStats>();
+  for (const Yuv& p : ball) stats->Add(p);
+  const Status st = stats->Fit(start, out);
+  if (!st.ok()) why = st.message();
+  return st.ok();
 }
 
 void NarrowAgainstBackground(const std::vector<Yuv>& ball, const std::vector<Yuv>& background,
                              double background_weight, BallColorModel& m) {
-  // Hue of every pixel the model takes apart from its hue window (the window is what moves).
-  const double centre = 0.5 * (m.hue_min_deg + m.hue_max_deg);
-  const auto hues = [&m, centre](const std::vector<Yuv>& px) {
-    std::vector<double> h;
-    for (const Yuv& p : px) {
-      BallColorModel at = m;
-      const double hp = UnwrapNear(HueDeg(p), centre);
-      at.hue_min_deg = static_cast<float>(hp - 0.5);
-      at.hue_max_deg = static_cast<float>(hp + 0.5);
-      if (InBallColorModel(at, p.y, p.u, p.v)) h.push_back(hp);
-    }
-    std::sort(h.begin(), h.end());
-    return h;
-  };
-  const std::vector<double> hb = hues(ball), hg = hues(background);
-  if (hb.size() < kMinFitPixels || hg.empty()) return;
-  const auto count_in = [](const std::vector<double>& h, double lo, double hi) {
-    return static_cast<double>(std::upper_bound(h.begin(), h.end(), hi) -
-                               std::lower_bound(h.begin(), h.end(), lo));
-  };
-  const auto pct = [&hb](double q) {
-    return hb[std::min(hb.size() - 1, static_cast<size_t>(q * static_cast<double>(hb.size())))];
-  };
-  double best_lo = m.hue_min_deg, best_hi = m.hue_max_deg;
-  double best = 1e300;
-  const double qs_lo[] = {-1, 0.005, 0.01, 0.02, 0.03, 0.05, 0.08};
-  const double qs_hi[] = {-1, 0.995, 0.99, 0.98, 0.97, 0.95, 0.92};
-  for (double ql : qs_lo) {
-    for (double qh : qs_hi) {
-      const double lo = ql < 0 ? m.hue_min_deg : std::max<double>(m.hue_min_deg, pct(ql) - 1.0);
-      const double hi = qh < 0 ? m.hue_max_deg : std::min<double>(m.hue_max_deg, pct(qh) + 1.0);
-      if (hi - lo < 6.0) continue;
-      const double cost = static_cast<double>(hb.size()) - count_in(hb, lo, hi) +
-                          background_weight * count_in(hg, lo, hi);
-      if (cost < best - 1e-9) {
-        best = cost;
-        best_lo = lo;
-        best_hi = hi;
-      }
-    }
-  }
-  m.hue_min_deg = static_cast<float>(best_lo);
-  m.hue_max_deg = static_cast<float>(best_hi);
+  auto stats = std::make_unique<BallColorStats>();
+  for (const Yuv& p : ball) stats->Add(p);
+  auto bg = std::make_unique<HueHistogram>();
+  const BallColorTest test(m);
+  for (const Yuv& p : background) bg->AddIfInModelIgnoringHue(test, p);
+  NarrowHueWindow(*stats, *bg, static_cast<float>(background_weight), m);
 }
 
 namespace {
@@ -368,18 +275,11 @@ bool CheckAgainstField(size_t ball_pixels, const std::vector<Yuv>& background, T
                        std::string& error) {
   out.ball_pixels = ball_pixels;
   out.background = background.size();
-  size_t field = 0, field_taken = 0, taken = 0;
-  for (const Yuv& p : background) {
-    const bool is_ball = InBallColorModel(out.model, p.y, p.u, p.v);
-    taken += is_ball;
-    const ColorClass bg = BackgroundClass(p.y, p.u, p.v);
-    if (bg == ColorClass::kField || bg == ColorClass::kLine) {
-      ++field;
-      field_taken += is_ball;
-    }
-  }
-  out.field_taken = field ? static_cast<double>(field_taken) / field : 0.0;
-  out.background_taken = background.empty() ? 0.0 : static_cast<double>(taken) / background.size();
+  FieldCheck check;
+  const BallColorTest test(out.model);
+  for (const Yuv& p : background) check.Add(test, p);
+  out.field_taken = check.field_taken_fraction();
+  out.background_taken = check.all ? static_cast<double>(check.all_taken) / check.all : 0.0;
   if (out.field_taken > kMaxFieldTaken) {
     char buf[160];
     std::snprintf(buf, sizeof buf,

@@ -1,0 +1,184 @@
+#include "core/color_lut/color_teach.h"
+
+#include <cmath>
+
+namespace bv {
+namespace {
+
+constexpr float kRadToDeg = 57.2957795f;
+constexpr float kChromaStep = 0.02f;
+constexpr float kMinFitPixels = 200.0f;
+
+float HueDeg(const Yuv& p) {
+  return std::atan2(static_cast<float>(p.v) - 128.0f, static_cast<float>(p.u) - 128.0f) * kRadToDeg;
+}
+
+int HueBin(float deg) {
+  int b = static_cast<int>(std::floor(deg)) % BallColorStats::kHueBins;
+  return b < 0 ? b + BallColorStats::kHueBins : b;
+}
+
+float Total(const float* bins, int n) {
+  float t = 0;
+  for (int i = 0; i < n; ++i) t += bins[i];
+  return t;
+}
+
+// Value (bin centre) below which a fraction q of the histogram lies.
+float Percentile(const float* bins, int n, float step, float q) {
+  const float target = q * Total(bins, n);
+  float acc = 0;
+  for (int i = 0; i < n; ++i) {
+    acc += bins[i];
+    if (acc >= target && acc > 0) return (static_cast<float>(i) + 0.5f) * step;
+  }
+  return (static_cast<float>(n) - 0.5f) * step;
+}
+
+// The same on the circular hue histogram, read from `mean` - 180 deg on: an unwrapped angle
+// within (mean - 180, mean + 180].
+float HuePercentile(const float* bins, float mean, float q) {
+  const float target = q * Total(bins, BallColorStats::kHueBins);
+  const int first = static_cast<int>(std::floor(mean - 180.0f));
+  float acc = 0;
+  for (int k = 0; k < BallColorStats::kHueBins; ++k) {
+    acc += bins[HueBin(static_cast<float>(first + k))];
+    if (acc >= target && acc > 0) return static_cast<float>(first + k) + 0.5f;
+  }
+  return static_cast<float>(first + BallColorStats::kHueBins) - 0.5f;
+}
+
+// Sum of the bins whose centre lies in [lo, hi] (unwrapped degrees).
+float HueCount(const float* bins, float lo, float hi) {
+  float n = 0;
+  for (int d = static_cast<int>(std::floor(lo - 0.5f)); d <= static_cast<int>(hi); ++d) {
+    const float centre = static_cast<float>(d) + 0.5f;
+    if (centre >= lo && centre <= hi) n += bins[HueBin(static_cast<float>(d))];
+  }
+  return n;
+}
+
+float Clamp(float x, float lo, float hi) { return x < lo ? lo : (x > hi ? hi : x); }
+
+float HueMean(float sum_cos, float sum_sin) { return std::atan2(sum_sin, sum_cos) * kRadToDeg; }
+
+}  // namespace
+
+void BallColorStats::Clear() { *this = BallColorStats(); }
+
+void BallColorStats::Add(const Yuv& p, float weight) {
+  const float du = static_cast<float>(p.u) - 128.0f, dv = static_cast<float>(p.v) - 128.0f;
+  const float c = std::sqrt(du * du + dv * dv) / (p.y > 0 ? static_cast<float>(p.y) : 1.0f);
+  const int cb = static_cast<int>(c / kChromaStep);
+  const int bin = cb < kChromaBins ? cb : kChromaBins - 1;
+  n_ += weight;
+  luma_[p.y] += weight;
+  chroma_all_[bin] += weight;
+  if (p.y <= bright_y_) chroma_dark_[bin] += weight;
+  if (p.y >= bright_y_end_) chroma_bright_[bin] += weight;
+  if (c >= kHueMinChroma) {
+    const float h = HueDeg(p);
+    hue_[HueBin(h)] += weight;
+    sum_cos_ += weight * std::cos(h / kRadToDeg);
+    sum_sin_ += weight * std::sin(h / kRadToDeg);
+    n_hue_ += weight;
+  }
+}
+
+float BallColorStats::hue_mean_deg() const { return HueMean(sum_cos_, sum_sin_); }
+
+Status BallColorStats::Fit(const BallColorModel& start, BallColorModel& out) const {
+  if (n_ < kMinFitPixels) {
+    return Status(StatusCode::kFailedPrecondition,
+                  "teach: fewer than 200 ball pixels to learn from");
+  }
+  if (n_hue_ < 0.5f * kMinFitPixels) {
+    return Status(StatusCode::kFailedPrecondition,
+                  "teach: the taught pixels are nearly grey (relative chroma below 0.25): not a "
+                  "ball colour");
+  }
+  BallColorModel m = start;
+  // Hue: the central 96 % with a margin for what the pixels did not show (4 deg ~ the spread of
+  // one surface's pixels from sensor noise at Y 60).
+  const float mean = hue_mean_deg();
+  const float h_lo = HuePercentile(hue_, mean, 0.02f) - 4.0f;
+  const float h_hi = HuePercentile(hue_, mean, 0.98f) + 4.0f;
+  const float mid = 0.5f * (h_lo + h_hi);
+  const float half = 0.5f * (h_hi - h_lo) > 8.0f ? 0.5f * (h_hi - h_lo) : 8.0f;
+  m.hue_min_deg = mid - half;
+  m.hue_max_deg = mid + half;
+  const auto floor_of = [](const float* bins, float fallback) {
+    if (Total(bins, kChromaBins) < 50.0f) return fallback;
+    return Clamp(0.85f * Percentile(bins, kChromaBins, kChromaStep, 0.03f), 0.12f, 0.5f);
+  };
+  m.chroma_min = floor_of(chroma_dark_, start.chroma_min);
+  const float bright = floor_of(chroma_bright_, start.chroma_min_bright);
+  m.chroma_min_bright = bright < m.chroma_min ? bright : m.chroma_min;
+  m.chroma_max =
+      Clamp(1.3f * Percentile(chroma_all_, kChromaBins, kChromaStep, 0.995f), 1.0f, 4.0f);
+  // Luma is what shade changes: the floor only ever goes down from the start model's (pixels
+  // that never showed the ball in deep shade must not exclude it there).
+  const float y_floor = Percentile(luma_, kLumaBins, 1.0f, 0.005f) - 8.0f;
+  m.y_min = static_cast<uint8_t>(
+      Clamp(y_floor < static_cast<float>(start.y_min) ? y_floor : start.y_min, 12.0f, 96.0f));
+  BV_TRY(ValidateBallColorModel(m));
+  out = m;
+  return Status::Ok();
+}
+
+void HueHistogram::Clear() { *this = HueHistogram(); }
+
+void HueHistogram::AddIfInModelIgnoringHue(const BallColorTest& test, const Yuv& p, float weight) {
+  if (test.ContainsIgnoringHue(p.y, p.u, p.v)) bins[HueBin(HueDeg(p))] += weight;
+}
+
+void NarrowHueWindow(const BallColorStats& ball, const HueHistogram& background,
+                     float background_weight, BallColorModel& m) {
+  const float total = ball.hue_count();
+  if (total < kMinFitPixels || Total(background.bins, BallColorStats::kHueBins) <= 0) return;
+  // Percentiles unwrapped near the window's centre, so lo and hi compare with its bounds.
+  const float centre = 0.5f * (m.hue_min_deg + m.hue_max_deg);
+  float mean = ball.hue_mean_deg();
+  while (mean - centre > 180.0f) mean -= 360.0f;
+  while (mean - centre <= -180.0f) mean += 360.0f;
+  const float qs_lo[] = {-1, 0.005f, 0.01f, 0.02f, 0.03f, 0.05f, 0.08f};
+  const float qs_hi[] = {-1, 0.995f, 0.99f, 0.98f, 0.97f, 0.95f, 0.92f};
+  float best_lo = m.hue_min_deg, best_hi = m.hue_max_deg, best = 3.4e38f;
+  for (float ql : qs_lo) {
+    float lo = m.hue_min_deg;
+    if (ql >= 0) {
+      const float p = HuePercentile(ball.hue(), mean, ql) - 1.0f;
+      lo = p > m.hue_min_deg ? p : m.hue_min_deg;
+    }
+    for (float qh : qs_hi) {
+      float hi = m.hue_max_deg;
+      if (qh >= 0) {
+        const float p = HuePercentile(ball.hue(), mean, qh) + 1.0f;
+        hi = p < m.hue_max_deg ? p : m.hue_max_deg;
+      }
+      if (hi - lo < 6.0f) continue;
+      const float cost = total - HueCount(ball.hue(), lo, hi) +
+                         background_weight * HueCount(background.bins, lo, hi);
+      if (cost < best) {
+        best = cost;
+        best_lo = lo;
+        best_hi = hi;
+      }
+    }
+  }
+  m.hue_min_deg = best_lo;
+  m.hue_max_deg = best_hi;
+}
+
+void FieldCheck::Add(const BallColorTest& test, const Yuv& p) {
+  const bool taken = test.Contains(p.y, p.u, p.v);
+  ++all;
+  all_taken += taken;
+  const ColorClass bg = BackgroundClass(p.y, p.u, p.v);
+  if (bg == ColorClass::kField || bg == ColorClass::kLine) {
+    ++field;
+    field_taken += taken;
+  }
+}
+
+}  // namespace bv

@@ -1,0 +1,67 @@
+#pragma once
+// Teaching the ball colour model (core/color_lut/color_model.h) from pixels, allocation-free:
+// fixed-size histograms of the taught pixels' hue, relative chroma and luma, the model fitted
+// from their percentiles, the hue window narrowed against ball-coloured background, and the
+// check that the taught colour does not take the field. Used by `ballvision lut teach` on the
+// host and by the device's teach command (firmware), so both learn the same way.
+#include <cstdint>
+
+#include "core/color_lut/color_model.h"
+#include "core/common/image.h"
+#include "core/common/status.h"
+
+namespace bv {
+
+/// Histograms of ball pixels. ~4 KB: the device keeps it in its upload buffer while teaching.
+class BallColorStats {
+ public:
+  static constexpr int kHueBins = 360;     // 1 deg; pixels with relative chroma >= 0.25 only
+  static constexpr int kChromaBins = 128;  // relative chroma 0..2.56 in steps of 0.02
+  static constexpr int kLumaBins = 256;
+  static constexpr float kHueMinChroma = 0.25f;  // below, hue is mostly sensor noise
+
+  void Clear();
+  void Add(const Yuv& p, float weight = 1.0f);
+  float count() const { return n_; }
+  float hue_count() const { return n_hue_; }
+  const float* hue() const { return hue_; }
+  float hue_mean_deg() const;  // circular mean of the hue histogram's pixels
+
+  /// The model with these pixels' hue (central 96 % around their circular mean, 4 deg margin),
+  /// relative chroma floors (0.85 x the 3rd percentile below / above the bright knee), ceiling
+  /// (1.3 x the 99.5th percentile) and luma floor (never above the start's); the rest from
+  /// `start`. kFailedPrecondition naming the reason: fewer than 200 pixels, or nearly grey.
+  Status Fit(const BallColorModel& start, BallColorModel& out) const;
+
+ private:
+  float hue_[kHueBins] = {};
+  float chroma_dark_[kChromaBins] = {}, chroma_bright_[kChromaBins] = {};
+  float chroma_all_[kChromaBins] = {};
+  float luma_[kLumaBins] = {};
+  float sum_cos_ = 0, sum_sin_ = 0, n_ = 0, n_hue_ = 0;
+  uint8_t bright_y_ = 128, bright_y_end_ = 192;
+};
+
+/// Hue histogram (1 deg bins, as BallColorStats) of background pixels the model takes apart
+/// from its hue window.
+struct HueHistogram {
+  float bins[BallColorStats::kHueBins] = {};
+  void Clear();
+  void AddIfInModelIgnoringHue(const BallColorTest& test, const Yuv& p, float weight = 1.0f);
+};
+
+/// Narrows m's hue window to the pair of ball-hue percentiles (0.5..8 % at either end) that
+/// costs the fewest ball pixels plus `background_weight` x the background samples inside.
+void NarrowHueWindow(const BallColorStats& ball, const HueHistogram& background,
+                     float background_weight, BallColorModel& m);
+
+/// Counts of field / line background samples (BackgroundClass) and how many the model takes.
+struct FieldCheck {
+  uint32_t field = 0, field_taken = 0, all = 0, all_taken = 0;
+  void Add(const BallColorTest& test, const Yuv& p);
+  float field_taken_fraction() const { return field ? float(field_taken) / float(field) : 0.f; }
+};
+/// A taught colour may take at most this fraction of the field's and lines' pixels.
+inline constexpr float kMaxFieldTaken = 0.002f;
+
+}  // namespace bv
