@@ -5,6 +5,7 @@
 #include <new>
 
 #include "core/color_lut/color_model.h"
+#include "core/color_lut/color_teach.h"
 #include "core/common/blob.h"
 #include "core/common/crc32.h"
 #include "hal/common/blob_store.h"
@@ -128,6 +129,9 @@ size_t MainLoop::Uploads::capacity(protocol::UploadTarget target) const {
 }
 
 Status MainLoop::Uploads::Begin(protocol::UploadTarget target, size_t total_len) {
+  if (loop_.teach_.active) {
+    return Status(StatusCode::kUnavailable, "upload: a teach is using the buffer");
+  }
   if (total_len > capacity(target)) {
     return Status(StatusCode::kResourceExhausted, "upload: larger than the target allows");
   }
@@ -179,6 +183,92 @@ Status MainLoop::Uploads::Commit(protocol::UploadTarget target, uint32_t total_c
   }
   m.InitPipeline();
   return Status();
+}
+
+Status MainLoop::Teacher::RequestTeach(const protocol::TeachRequest& request, uint32_t cmd_seq) {
+  if (loop_.teach_.active) return Status(StatusCode::kFailedPrecondition, "teach: one pending");
+  loop_.teach_.active = true;
+  loop_.teach_.request = request;
+  loop_.teach_.cmd_seq = cmd_seq;
+  return Status();
+}
+
+// The ball's floor point into each camera (centre and radius), or the given pixel of one.
+static void TeachTargets(const RigCalibration& cal, const protocol::TeachRequest& r,
+                         TeachTarget t[2]) {
+  using protocol::TeachWhere;
+  if (r.where != TeachWhere::kFloorPoint) {
+    TeachTarget& one = t[r.where == TeachWhere::kOmniPixel ? 0 : 1];
+    one.valid = true;
+    one.u_px = r.a;
+    one.v_px = r.b;
+    return;
+  }
+  const float rb = cal.ball_radius_m;
+  const Eigen::Vector3f p(r.a, r.b, rb);
+  float u = 0, v = 0, u2 = 0, v2 = 0;
+  const float d = std::hypot(r.a, r.b);
+  if (cal.omni.valid && d > 1e-3f && OmniProject(cal.omni, p, u, v).ok() &&
+      OmniProject(cal.omni, p + Eigen::Vector3f(r.a / d * rb, r.b / d * rb, 0.f), u2, v2).ok()) {
+    t[0] = {true, u, v, std::hypot(u2 - u, v2 - v)};
+  }
+  if (cal.persp.valid && PerspProject(cal.persp, p, u, v).ok()) {
+    const float range = (p - cal.persp.t_robot_cam).norm();
+    t[1] = {true, u, v, range > rb ? cal.persp.fx * rb / range : 0.f};
+  }
+}
+
+// Teaches in the upload buffer (no upload can be open: the handler refuses a teach then):
+// blob in the first half, the new table and the teach statistics in the second.
+protocol::CommandError MainLoop::TeachAndStore(const FrameInput& in, uint32_t& detail) {
+  using protocol::CommandError;
+  const protocol::TeachRequest& r = teach_.request;
+  if (upload_buffer_.empty()) return CommandError::kUnsupported;
+  if (r.where == protocol::TeachWhere::kFloorPoint &&
+      status_.calibration_state != static_cast<uint8_t>(BlobState::kOk)) {
+    return CommandError::kUnsupported;  // a floor point needs the calibration
+  }
+  TeachTarget targets[2];
+  TeachTargets(calibration_, r, targets);
+  const YuyvImage images[2] = {in.omni, in.persp};
+  const std::span<uint8_t> blob = upload_buffer_.first(kBlobScratchBytes);
+  const std::span<uint8_t> work = upload_buffer_.subspan(kBlobScratchBytes);
+  static_assert(sizeof(ColorLut) + sizeof(TeachWorkspace) <= kBlobScratchBytes);
+  static_assert(sizeof(ColorLut) % alignof(TeachWorkspace) == 0);
+  ColorLut& table = *new (work.data()) ColorLut;
+  TeachWorkspace& ws = *new (work.data() + sizeof(ColorLut)) TeachWorkspace;
+  BallColorModel model;
+  int camera = -1;
+  const Status taught = TeachFromImages(images, targets, BallColorModel{}, ws, model, camera);
+  detail = camera < 0 ? 0xFFu : static_cast<uint32_t>(camera);
+  if (!taught.ok()) {
+    return taught.code() == StatusCode::kOutOfRange ? CommandError::kTeachRefused
+                                                    : CommandError::kNoBall;
+  }
+  if (!BuildLut(model, table).ok()) return CommandError::kTeachRefused;
+  const Result<size_t> n = SerializeLut(table, blob);
+  if (!n.ok()) return CommandError::kStorageFailed;
+  // Stored exactly as an uploaded table: A/B slots with CRC, then activated.
+  hal::BlobStore store(storage_, config_.lut_slots[0], config_.lut_slots[1], BlobKind::kColorLut,
+                       kColorLutBlobVersion);
+  if (!store.Save(blob.first(*n), work).ok()) return CommandError::kStorageFailed;
+  if (!ParseLut(blob.first(*n), lut_).ok()) return CommandError::kStorageFailed;
+  status_.lut_id = lut_.Id();
+  status_.lut_state = static_cast<uint8_t>(BlobState::kOk);
+  InitPipeline();
+  return CommandError::kNone;
+}
+
+void MainLoop::RunTeach(const FrameInput& in) {
+  uint32_t detail = 0;
+  const protocol::CommandError e = TeachAndStore(in, detail);
+  teach_.active = false;
+  const Result<size_t> n = protocol::EncodeCommandReply(protocol::MsgType::kTeachBall,
+                                                        teach_.cmd_seq, e, detail, seq_, packet_);
+  if (n.ok()) {
+    ++seq_;
+    Send(std::span<const uint8_t>(packet_, *n));
+  }
 }
 
 Status MainLoop::Params::SetParam(uint16_t id, float value) {
@@ -551,6 +641,7 @@ bool MainLoop::Poll() {
   in.persp = ToImage(pair.persp);
   in.t_us = pair.exposure_us;
 
+  if (teach_.active) RunTeach(in);
   BallState state;
   if (pipeline_ready_) {
     bv_perf_begin();
@@ -592,6 +683,16 @@ bool MainLoop::Poll() {
 
 void MainLoop::RunUntilFinished() {
   while (!camera_.Finished() || capture_.active) Poll();
+  if (teach_.active) {  // the frames ended before a pair could be taught from
+    teach_.active = false;
+    const Result<size_t> n =
+        protocol::EncodeCommandReply(protocol::MsgType::kTeachBall, teach_.cmd_seq,
+                                     protocol::CommandError::kNoBall, 0xFFu, seq_, packet_);
+    if (n.ok()) {
+      ++seq_;
+      Send(std::span<const uint8_t>(packet_, *n));
+    }
+  }
   SendStatus();
 }
 

@@ -129,6 +129,7 @@ class MainLoop {
   uint32_t sync_replies_sent() const { return sync_replies_sent_; }
   bool capture_active() const { return capture_.active; }
   bool pipeline_ready() const { return pipeline_ready_; }
+  const ColorLut& lut() const { return lut_; }
   const Pipeline& pipeline() const { return pipeline_; }
 
  private:
@@ -194,6 +195,23 @@ class MainLoop {
    private:
     MainLoop& loop_;
   };
+  // Teaching the ball colour (docs/protocol.md, "Teach"): the request waits for the next pair.
+  class Teacher : public protocol::TeachSink {
+   public:
+    explicit Teacher(MainLoop& loop) : loop_(loop) {}
+    Status RequestTeach(const protocol::TeachRequest& request, uint32_t cmd_seq) override;
+
+   private:
+    MainLoop& loop_;
+  };
+  struct TeachPending {
+    bool active = false;
+    protocol::TeachRequest request;
+    uint32_t cmd_seq = 0;
+  };
+  /// Teaches from `in` (the pending request), stores and activates the table, replies.
+  void RunTeach(const FrameInput& in);
+  protocol::CommandError TeachAndStore(const FrameInput& in, uint32_t& detail);
   struct CaptureState {
     bool active = false;
     bool holding = false;  // `pair` is held in the camera for streaming
@@ -257,8 +275,10 @@ class MainLoop {
   Params params_{*this};
   Hints hints_{*this};
   Capture capture_sink_{*this};
+  Teacher teacher_{*this};
+  TeachPending teach_;
   protocol::Decoder rx_;
-  protocol::CommandHandler commands_{uploads_, params_, &hints_, &capture_sink_};
+  protocol::CommandHandler commands_{uploads_, params_, &hints_, &capture_sink_, &teacher_};
 };
 
 }  // namespace bv::fw

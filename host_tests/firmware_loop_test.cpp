@@ -586,6 +586,126 @@ TEST_F(MainLoopCommandsTest, LutUploadIsVerifiedSavedAndActivated) {
   EXPECT_EQ(reboot.status().lut_id, lut_.Id());
 }
 
+// A disc of one colour in the shared fake frame (both cameras), YUYV; restored by the caller.
+void PaintDisc(int cu, int cv, int r, uint8_t y, uint8_t u, uint8_t v) {
+  for (int row = cv - r; row <= cv + r; ++row) {
+    for (int col = cu - r; col <= cu + r; ++col) {
+      if ((row - cv) * (row - cv) + (col - cu) * (col - cu) > r * r) continue;
+      uint8_t* px = g_frame + (static_cast<size_t>(row) * kFrameWidth + col) * 2;
+      px[0] = y;
+      px[1] = (col & 1) ? v : u;  // Y0 U Y1 V: the odd pixel's second byte is V
+    }
+  }
+}
+
+TEST_F(MainLoopCommandsTest, TeachAtAPixelLearnsTheBallStoresAndActivatesTheTable) {
+  // A yellow ball the built-in red-to-orange model does not take, lit unevenly (two halves).
+  std::memset(g_frame, 128, sizeof g_frame);
+  PaintDisc(320, 240, 20, 170, 60, 150);
+  PaintDisc(330, 240, 10, 110, 86, 142);  // the shaded part: same hue, darker
+  Start();
+  ASSERT_NE(loop_->lut().Classify(170, 60, 150), ColorClass::kBall) << "test needs a new colour";
+  const uint32_t builtin_id = loop_->status().lut_id;
+  uint8_t p[protocol::kTeachBallBytes];
+  ByteWriter w(p);
+  w.U8(static_cast<uint8_t>(protocol::TeachWhere::kPerspPixel));
+  w.F32(318.0f);
+  w.F32(236.0f);
+  Command(protocol::MsgType::kTeachBall, w.written());
+  loop_->Poll();  // the command: accepted, no reply yet (no pair)
+  int acks, errors, statuses;
+  uint8_t code = 0;
+  Replies(acks, errors, statuses, code);
+  EXPECT_EQ(acks + errors, 0) << "answered only once a pair was taught from";
+  camera_.AddRegular(1, 33333);
+  loop_->RunUntilFinished();
+  Replies(acks, errors, statuses, code);
+  EXPECT_EQ(errors, 0) << int{code};
+  EXPECT_EQ(acks, 1);
+  EXPECT_EQ(loop_->status().lut_state, static_cast<uint8_t>(protocol::BlobState::kOk));
+  EXPECT_NE(loop_->status().lut_id, builtin_id);
+  EXPECT_EQ(loop_->lut().Classify(170, 60, 150), ColorClass::kBall);
+  EXPECT_EQ(loop_->lut().Classify(110, 86, 142), ColorClass::kBall) << "the shade too";
+  EXPECT_NE(loop_->lut().Classify(128, 128, 128), ColorClass::kBall);
+  // Stored as an upload is: a fresh loop loads it.
+  MainLoop reboot(camera_, uart_, clock_, storage_, scratch_);
+  ASSERT_TRUE(reboot.Init().ok());
+  EXPECT_EQ(reboot.status().lut_id, loop_->status().lut_id);
+  std::memset(g_frame, 128, sizeof g_frame);
+}
+
+TEST_F(MainLoopCommandsTest, TeachRefusalsKeepTheOldTable) {
+  std::memset(g_frame, 128, sizeof g_frame);
+  PaintDisc(320, 240, 20, 170, 60, 150);
+  Start();
+  const uint32_t before = loop_->status().lut_id;
+  const auto teach = [&](protocol::TeachWhere where, float a, float b) {
+    uint8_t p[protocol::kTeachBallBytes];
+    ByteWriter w(p);
+    w.U8(static_cast<uint8_t>(where));
+    w.F32(a);
+    w.F32(b);
+    Command(protocol::MsgType::kTeachBall, w.written());
+  };
+  int acks, errors, statuses;
+  uint8_t code = 0;
+  // Grey where the ball was said to be: no ball.
+  teach(protocol::TeachWhere::kOmniPixel, 40, 40);
+  camera_.AddRegular(1, 33333);
+  loop_->RunUntilFinished();
+  Replies(acks, errors, statuses, code);
+  EXPECT_EQ(errors, 1);
+  EXPECT_EQ(code, static_cast<uint8_t>(protocol::CommandError::kNoBall));
+  // A floor point without a calibration.
+  teach(protocol::TeachWhere::kFloorPoint, 1.0f, 2.0f);
+  camera_.Add({33333, 0, 0});
+  loop_->RunUntilFinished();
+  Replies(acks, errors, statuses, code);
+  EXPECT_EQ(errors, 2);
+  EXPECT_EQ(code, static_cast<uint8_t>(protocol::CommandError::kUnsupported));
+  // Out of range, NaN: refused at once.
+  teach(protocol::TeachWhere::kPerspPixel, -1.0f, 3.0f);
+  teach(protocol::TeachWhere::kFloorPoint, std::nanf(""), 3.0f);
+  Drain();
+  Replies(acks, errors, statuses, code);
+  EXPECT_EQ(errors, 4);
+  EXPECT_EQ(code, static_cast<uint8_t>(protocol::CommandError::kBadValue));
+  // An upload begin while a teach waits for its pair: busy (the teach works in the buffer).
+  teach(protocol::TeachWhere::kPerspPixel, 320, 240);
+  {
+    uint8_t ub[9];
+    ByteWriter ubw(ub);
+    ubw.U8(static_cast<uint8_t>(protocol::UploadTarget::kLut));
+    ubw.U32(1000);
+    ubw.U32(0);
+    Command(protocol::MsgType::kUploadBegin, ubw.written());
+  }
+  Drain();
+  Replies(acks, errors, statuses, code);
+  EXPECT_EQ(errors, 5);
+  EXPECT_EQ(code, static_cast<uint8_t>(protocol::CommandError::kBusy));
+  camera_.Add({66666, 0, 0});
+  loop_->RunUntilFinished();  // the teach answers (ack: the disc is there)
+  Replies(acks, errors, statuses, code);
+  EXPECT_EQ(acks, 1);
+  const uint32_t taught = loop_->status().lut_id;
+  EXPECT_NE(taught, before);
+  // During an upload: busy; the upload goes on.
+  uint8_t b[9];
+  ByteWriter begin(b);
+  begin.U8(static_cast<uint8_t>(protocol::UploadTarget::kLut));
+  begin.U32(1000);
+  begin.U32(0);
+  Command(protocol::MsgType::kUploadBegin, begin.written());
+  teach(protocol::TeachWhere::kPerspPixel, 320, 240);
+  Drain();
+  Replies(acks, errors, statuses, code);
+  EXPECT_EQ(errors, 6);
+  EXPECT_EQ(code, static_cast<uint8_t>(protocol::CommandError::kBusy));
+  EXPECT_EQ(loop_->status().lut_id, taught);
+  std::memset(g_frame, 128, sizeof g_frame);
+}
+
 TEST_F(MainLoopCommandsTest, CorruptUploadIsRefusedAndNothingChanges) {
   Start();
   const std::span<uint8_t> b = RuleLutBlob();

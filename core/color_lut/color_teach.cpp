@@ -7,7 +7,7 @@ namespace {
 
 constexpr float kRadToDeg = 57.2957795f;
 constexpr float kChromaStep = 0.02f;
-constexpr float kMinFitPixels = 200.0f;
+constexpr float kMinFitPixels = 100.0f;
 
 float HueDeg(const Yuv& p) {
   return std::atan2(static_cast<float>(p.v) - 128.0f, static_cast<float>(p.u) - 128.0f) * kRadToDeg;
@@ -90,7 +90,7 @@ float BallColorStats::hue_mean_deg() const { return HueMean(sum_cos_, sum_sin_);
 Status BallColorStats::Fit(const BallColorModel& start, BallColorModel& out) const {
   if (n_ < kMinFitPixels) {
     return Status(StatusCode::kFailedPrecondition,
-                  "teach: fewer than 200 ball pixels to learn from");
+                  "teach: fewer than 100 ball pixels to learn from");
   }
   if (n_hue_ < 0.5f * kMinFitPixels) {
     return Status(StatusCode::kFailedPrecondition,
@@ -179,6 +179,144 @@ void FieldCheck::Add(const BallColorTest& test, const Yuv& p) {
     ++field;
     field_taken += taken;
   }
+}
+
+namespace {
+
+constexpr float kSeedHueTolDeg = 15.0f;
+constexpr float kSeedMinChroma = 0.10f;
+constexpr int kMaxRunPx = 160;
+constexpr int kBackgroundStride = 8;
+constexpr float kBackgroundWeight = kBackgroundStride * kBackgroundStride;
+
+float RelChroma(const Yuv& p) {
+  const float du = static_cast<float>(p.u) - 128.0f, dv = static_cast<float>(p.v) - 128.0f;
+  return std::sqrt(du * du + dv * dv) / (p.y > 0 ? static_cast<float>(p.y) : 1.0f);
+}
+
+// The seed pixel's own colour, relaxed: what the ball around it looks like in sun and shade.
+struct SeedTest {
+  float hue_deg;
+  bool operator()(const Yuv& p) const {
+    if (p.y < 12 || RelChroma(p) < kSeedMinChroma) return false;
+    float d = HueDeg(p) - hue_deg;
+    if (d > 180.0f) d -= 360.0f;
+    if (d < -180.0f) d += 360.0f;
+    return d <= kSeedHueTolDeg && d >= -kSeedHueTolDeg;
+  }
+};
+
+struct Disc {
+  float u, v, r;
+};
+
+// From the target along 8 rays while the seed colour holds: the centre (between opposite run
+// ends) and the radius (median run), clamped to 1.5 x a known radius.
+Status MeasureBall(const YuyvImage& img, const TeachTarget& t, Disc& out) {
+  const int u0 = static_cast<int>(t.u_px + 0.5f), v0 = static_cast<int>(t.v_px + 0.5f);
+  if (!img.contains(u0, v0))
+    return Status(StatusCode::kNotFound, "teach: the point is outside the image");
+  const Yuv seed = img.at(u0, v0);
+  if (seed.y < 12 || RelChroma(seed) < 0.15f) {
+    return Status(StatusCode::kNotFound,
+                  "teach: the pixel at the point is grey or dark, not a ball");
+  }
+  const SeedTest test{HueDeg(seed)};
+  static constexpr int kDu[8] = {1, 1, 0, -1, -1, -1, 0, 1}, kDv[8] = {0, 1, 1, 1, 0, -1, -1, -1};
+  float run[8];
+  for (int k = 0; k < 8; ++k) {
+    int n = 0;
+    while (n < kMaxRunPx && img.contains(u0 + (n + 1) * kDu[k], v0 + (n + 1) * kDv[k]) &&
+           test(img.at(u0 + (n + 1) * kDu[k], v0 + (n + 1) * kDv[k]))) {
+      ++n;
+    }
+    run[k] = (static_cast<float>(n) + 0.5f) * ((kDu[k] != 0 && kDv[k] != 0) ? 1.41421f : 1.0f);
+  }
+  out.u = t.u_px + 0.5f * (run[0] - run[4]);
+  out.v = t.v_px + 0.5f * (run[2] - run[6]);
+  float r[4];
+  for (int k = 0; k < 4; ++k) r[k] = 0.5f * (run[k] + run[k + 4]);  // diameters / 2
+  for (int i = 1; i < 4; ++i) {                                     // sort 4
+    for (int j = i; j > 0 && r[j - 1] > r[j]; --j) {
+      const float x = r[j];
+      r[j] = r[j - 1];
+      r[j - 1] = x;
+    }
+  }
+  out.r = 0.5f * (r[1] + r[2]);
+  if (t.radius_px > 0 && out.r > 1.5f * t.radius_px) out.r = 1.5f * t.radius_px;
+  if (out.r < 2.0f)
+    return Status(StatusCode::kNotFound,
+                  "teach: the ball-coloured region at the point is under 4 px across");
+  if (out.r >= 0.9f * kMaxRunPx)
+    return Status(StatusCode::kNotFound, "teach: the region at the point is larger than a ball");
+  return Status::Ok();
+}
+
+template <typename F>
+void ForBackground(const YuyvImage& img, const Disc& d, F&& f) {
+  const float keep_out = 2.0f * d.r + 6.0f;
+  for (int v = 3; v < img.height; v += kBackgroundStride) {
+    for (int u = (v / kBackgroundStride) % kBackgroundStride; u < img.width;
+         u += kBackgroundStride) {
+      const float du = static_cast<float>(u) - d.u, dv = static_cast<float>(v) - d.v;
+      if (du * du + dv * dv > keep_out * keep_out) f(img.at(u, v));
+    }
+  }
+}
+
+}  // namespace
+
+Status TeachFromImages(const YuyvImage images[2], const TeachTarget targets[2],
+                       const BallColorModel& start, TeachWorkspace& ws, BallColorModel& out,
+                       int& failed_camera) {
+  failed_camera = -1;
+  ws.ball.Clear();
+  ws.background.Clear();
+  Disc disc[2] = {};
+  bool used[2] = {false, false};
+  for (int c = 0; c < 2; ++c) {
+    if (!targets[c].valid || images[c].data == nullptr) continue;
+    failed_camera = c;
+    BV_TRY(MeasureBall(images[c], targets[c], disc[c]));
+    const Disc& d = disc[c];
+    const SeedTest test{HueDeg(images[c].at(static_cast<int>(targets[c].u_px + 0.5f),
+                                            static_cast<int>(targets[c].v_px + 0.5f)))};
+    // The ball inside 0.85 of its radius: the outline mixes with what is around it.
+    const float rin = 0.85f * d.r;
+    for (int v = static_cast<int>(d.v - rin); v <= static_cast<int>(d.v + rin) + 1; ++v) {
+      for (int u = static_cast<int>(d.u - rin); u <= static_cast<int>(d.u + rin) + 1; ++u) {
+        const float du = static_cast<float>(u) - d.u, dv = static_cast<float>(v) - d.v;
+        if (!images[c].contains(u, v) || du * du + dv * dv > rin * rin) continue;
+        const Yuv p = images[c].at(u, v);
+        if (test(p)) ws.ball.Add(p);
+      }
+    }
+    used[c] = true;
+  }
+  if (!used[0] && !used[1]) {
+    return Status(StatusCode::kNotFound, "teach: no camera image at the point");
+  }
+  BV_TRY(ws.ball.Fit(start, out));
+  // Narrow the hue window against ball-coloured background, then check the field.
+  const BallColorTest fitted(out);
+  for (int c = 0; c < 2; ++c) {
+    if (!used[c]) continue;
+    ForBackground(images[c], disc[c],
+                  [&](const Yuv& p) { ws.background.AddIfInModelIgnoringHue(fitted, p); });
+  }
+  NarrowHueWindow(ws.ball, ws.background, kBackgroundWeight, out);
+  const BallColorTest narrowed(out);
+  FieldCheck check;
+  for (int c = 0; c < 2; ++c) {
+    if (used[c]) ForBackground(images[c], disc[c], [&](const Yuv& p) { check.Add(narrowed, p); });
+  }
+  failed_camera = -1;
+  if (check.field_taken_fraction() > kMaxFieldTaken) {
+    return Status(StatusCode::kOutOfRange,
+                  "teach: the taught colour would take the field's or lines' pixels");
+  }
+  return Status::Ok();
 }
 
 }  // namespace bv

@@ -30,7 +30,7 @@ class BallColorStats {
   /// The model with these pixels' hue (central 96 % around their circular mean, 4 deg margin),
   /// relative chroma floors (0.85 x the 3rd percentile below / above the bright knee), ceiling
   /// (1.3 x the 99.5th percentile) and luma floor (never above the start's); the rest from
-  /// `start`. kFailedPrecondition naming the reason: fewer than 200 pixels, or nearly grey.
+  /// `start`. kFailedPrecondition naming the reason: fewer than 100 pixels, or nearly grey.
   Status Fit(const BallColorModel& start, BallColorModel& out) const;
 
  private:
@@ -63,5 +63,32 @@ struct FieldCheck {
 };
 /// A taught colour may take at most this fraction of the field's and lines' pixels.
 inline constexpr float kMaxFieldTaken = 0.002f;
+
+// --- one-step teaching from one frame pair (the device's teach command) ---
+
+/// Where the ball is in one camera's image: its centre, and its radius when known (from a
+/// projected floor point; 0: measured from the image).
+struct TeachTarget {
+  bool valid = false;
+  float u_px = 0, v_px = 0, radius_px = 0;
+};
+
+/// The state a teach needs (~6 KB): the device places it in its upload buffer.
+struct TeachWorkspace {
+  BallColorStats ball;
+  HueHistogram background;
+};
+
+/// Learns the ball colour from the frame pair: from each valid target a region of the seed
+/// pixel's own colour (hue within 15 deg, relative chroma >= 0.1) is measured along 8 rays,
+/// the disc inside it feeds the statistics; the fitted model is narrowed against the images'
+/// background (every 8th pixel of every 8th row outside the ball) and checked against their
+/// field and lines. `failed_camera` names the camera (0 omni, 1 persp) an error is about.
+/// Errors: kNotFound (no ball-coloured region at a target, or it is too small / too large),
+/// kFailedPrecondition (the pixels cannot be a ball colour: grey, too few), kOutOfRange (the
+/// colour would take more than kMaxFieldTaken of the field's and lines' pixels).
+Status TeachFromImages(const YuyvImage images[2], const TeachTarget targets[2],
+                       const BallColorModel& start, TeachWorkspace& ws, BallColorModel& out,
+                       int& failed_camera);
 
 }  // namespace bv

@@ -24,23 +24,49 @@ CommandResult CommandHandler::Handle(const FrameView& frame, uint32_t reply_seq,
   result.reply_is_error = result.error != CommandError::kNone;
   if (result.reply_is_error) ++errors_;
   reply_len = 0;
-  if ((frame.type == MsgType::kRequestStatus || frame.type == MsgType::kClockSync) &&
+  if ((frame.type == MsgType::kRequestStatus || frame.type == MsgType::kClockSync ||
+       result.deferred) &&
       !result.reply_is_error) {
-    return result;  // the caller answers with a status packet / sync reply
+    return result;  // the caller answers with a status packet / sync reply / later
   }
-
-  uint8_t payload[10];
-  ByteWriter w(payload);
-  w.U8(static_cast<uint8_t>(frame.type));
-  w.U32(frame.seq);
-  if (result.reply_is_error) {
-    w.U8(static_cast<uint8_t>(result.error));
-    w.U32(detail);
-  }
-  auto n = EncodeFrame(result.reply_is_error ? MsgType::kError : MsgType::kAck, reply_seq,
-                       w.written(), reply);
+  auto n = EncodeCommandReply(frame.type, frame.seq, result.error, detail, reply_seq, reply);
   if (n.ok()) reply_len = *n;
   return result;
+}
+
+Result<size_t> EncodeCommandReply(MsgType cmd_type, uint32_t cmd_seq, CommandError error,
+                                  uint32_t detail, uint32_t reply_seq, std::span<uint8_t> out) {
+  uint8_t payload[10];
+  ByteWriter w(payload);
+  w.U8(static_cast<uint8_t>(cmd_type));
+  w.U32(cmd_seq);
+  if (error != CommandError::kNone) {
+    w.U8(static_cast<uint8_t>(error));
+    w.U32(detail);
+  }
+  return EncodeFrame(error != CommandError::kNone ? MsgType::kError : MsgType::kAck, reply_seq,
+                     w.written(), out);
+}
+
+// Checked here: finite numbers, a floor point within 20 m, a pixel within 0..4095; not while an
+// upload is open (the device teaches in the upload buffer).
+CommandError CommandHandler::TeachCommand(std::span<const uint8_t> p, uint32_t cmd_seq,
+                                          CommandResult& result) {
+  if (p.size() != kTeachBallBytes) return CommandError::kBadLength;
+  ByteReader r(p);
+  TeachRequest t;
+  const uint8_t where = r.U8();
+  t.a = r.F32();
+  t.b = r.F32();
+  if (where > static_cast<uint8_t>(TeachWhere::kPerspPixel)) return CommandError::kBadTarget;
+  t.where = static_cast<TeachWhere>(where);
+  const float limit = t.where == TeachWhere::kFloorPoint ? kMaxPoseFieldM : 4095.0f;
+  const float low = t.where == TeachWhere::kFloorPoint ? -kMaxPoseFieldM : 0.0f;
+  if (!(t.a >= low && t.a <= limit && t.b >= low && t.b <= limit)) return CommandError::kBadValue;
+  if (uploading_) return CommandError::kBusy;
+  if (!teach_->RequestTeach(t, cmd_seq).ok()) return CommandError::kBusy;
+  result.deferred = true;
+  return CommandError::kNone;
 }
 
 CommandError CommandHandler::Dispatch(const FrameView& frame, CommandResult& result,
@@ -79,6 +105,9 @@ CommandError CommandHandler::Dispatch(const FrameView& frame, CommandResult& res
     }
     case MsgType::kUploadCommit:
       return UploadCommit(p);
+    case MsgType::kTeachBall:
+      if (teach_ == nullptr) break;
+      return TeachCommand(p, frame.seq, result);
     case MsgType::kSetFieldHalf:
     case MsgType::kOdometry:
     case MsgType::kSetPose:
@@ -156,7 +185,9 @@ CommandError CommandHandler::UploadBegin(std::span<const uint8_t> p) {
   if (total == 0 || total > uploads_.capacity(t)) return CommandError::kTooLarge;
   if (uploading_) uploads_.Abort(target_);  // a new begin replaces an unfinished upload
   uploading_ = false;
-  if (!uploads_.Begin(t, total).ok()) return CommandError::kStorageFailed;
+  const Status begun = uploads_.Begin(t, total);
+  if (begun.code() == StatusCode::kUnavailable) return CommandError::kBusy;
+  if (!begun.ok()) return CommandError::kStorageFailed;
   uploading_ = true;
   target_ = t;
   total_len_ = total;

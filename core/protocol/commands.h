@@ -13,6 +13,9 @@
 //   clock sync      (0x28): id u32 | t1_host_us u64         -> sync reply (by the caller)
 //   capture start   (0x29): count u16 | mode u8 | cameras u8 -> ack / error
 //   capture stop    (0x2A): empty                           -> ack / error
+//   teach ball      (0x2B): where u8 | a f32 | b f32        -> ack / error once the next
+//                   frame pair was taught from (where: 0 floor point x y m, 1 omni / 2 persp
+//                   pixel u v); refused during an upload
 // Replies: ack (0x10): cmd_type u8 | cmd_seq u32
 //          error (0x11): cmd_type u8 | cmd_seq u32 | code u8 (CommandError) | detail u32
 #include <cstddef>
@@ -32,21 +35,24 @@ enum class UploadTarget : uint8_t { kCalibration = 1, kLut = 2 };
 enum class CommandError : uint8_t {
   kNone = 0,
   kUnknownCommand = 1,
-  kBadLength = 2,       // payload length wrong for the command
-  kBadTarget = 3,       // unknown upload target
-  kNoUpload = 4,        // chunk / commit without a matching begin
-  kBadOffset = 5,       // chunk not contiguous with the previous one
-  kTooLarge = 6,        // total or chunk beyond capacity
-  kVerifyFailed = 7,    // complete upload's CRC or content check failed; old data kept
-  kStorageFailed = 8,   // storage refused the write; old data kept
+  kBadLength = 2,      // payload length wrong for the command
+  kBadTarget = 3,      // unknown upload target
+  kNoUpload = 4,       // chunk / commit without a matching begin
+  kBadOffset = 5,      // chunk not contiguous with the previous one
+  kTooLarge = 6,       // total or chunk beyond capacity
+  kVerifyFailed = 7,   // complete upload's CRC or content check failed; old data kept
+  kStorageFailed = 8,  // storage refused the write; old data kept
   kUnknownParam = 9,
-  kBadValue = 10,       // NaN or out of the parameter's range
-  kIncomplete = 11,     // commit before all bytes arrived
+  kBadValue = 10,    // NaN or out of the parameter's range
+  kIncomplete = 11,  // commit before all bytes arrived
 
   // Capture over the link.
-  kBusy = 12,         // a capture is already running
+  kBusy = 12,         // a capture is already running (teach: an upload open, a teach pending)
   kUnsupported = 13,  // the board cannot do this (capture without a spare frame slot)
   kNotRunning = 14,   // capture stop without a capture
+  // Teaching the ball colour (detail: which camera, 0 omni / 1 persp, where it applies).
+  kNoBall = 15,        // nothing ball-like at the point: no region to learn from; old table kept
+  kTeachRefused = 16,  // the learnt colour would take the field or lines; old table kept
 };
 
 /// Where uploads go: the firmware implements it over the A/B blob store, tests with RAM.
@@ -54,7 +60,8 @@ class UploadSink {
  public:
   virtual ~UploadSink() = default;
   virtual size_t capacity(UploadTarget target) const = 0;
-  /// Prepares the inactive slot. Nothing visible changes until Commit succeeds.
+  /// Prepares the inactive slot. Nothing visible changes until Commit succeeds. kUnavailable:
+  /// the buffer is in use (a teach waits for its pair): answered "busy".
   virtual Status Begin(UploadTarget target, size_t total_len) = 0;
   virtual Status Write(UploadTarget target, size_t offset, std::span<const uint8_t> data) = 0;
   /// Verifies (CRC of all bytes == total_crc32, content parses) and activates.
@@ -91,6 +98,19 @@ class CaptureSink {
   virtual Status StopCapture() = 0;
 };
 
+/// Learning the ball colour on the device. The request is checked by the handler; the sink
+/// takes it (kFailedPrecondition: one is pending already) and answers it later, with
+/// EncodeCommandReply, once a frame pair was taught from.
+class TeachSink {
+ public:
+  virtual ~TeachSink() = default;
+  virtual Status RequestTeach(const TeachRequest& request, uint32_t cmd_seq) = 0;
+};
+
+/// The ack (error == kNone) or error reply to command `cmd_type` / `cmd_seq`, as a wire frame.
+Result<size_t> EncodeCommandReply(MsgType cmd_type, uint32_t cmd_seq, CommandError error,
+                                  uint32_t detail, uint32_t reply_seq, std::span<uint8_t> out);
+
 // Ranges the handler accepts (the Pipeline and the pose parameters use the same limits).
 inline constexpr float kMaxOdometryStepM = 2.0f;
 inline constexpr float kMaxOdometryStepRad = 3.2f;
@@ -102,6 +122,7 @@ struct CommandResult {
   bool clock_sync = false;   // the caller must send a clock sync reply to `sync`
   ClockSyncRequest sync;
   bool reply_is_error = false;
+  bool deferred = false;  // accepted; the sink answers later (teach)
   CommandError error = CommandError::kNone;
 };
 
@@ -109,9 +130,10 @@ class CommandHandler {
  public:
   /// Without a PoseSink the pose commands are answered kUnknownCommand.
   /// Without a CaptureSink the capture commands are answered kUnknownCommand.
+  /// Without a TeachSink the teach command is answered kUnknownCommand.
   CommandHandler(UploadSink& uploads, ParamSink& params, PoseSink* pose = nullptr,
-                 CaptureSink* capture = nullptr)
-      : uploads_(uploads), params_(params), pose_(pose), capture_(capture) {}
+                 CaptureSink* capture = nullptr, TeachSink* teach = nullptr)
+      : uploads_(uploads), params_(params), pose_(pose), capture_(capture), teach_(teach) {}
 
   /// Handles one verified frame from the Decoder and encodes the reply (ack or error) into
   /// `reply` (a whole wire frame). Returns the reply's size in `reply_len` (0: no reply).
@@ -126,11 +148,13 @@ class CommandHandler {
   CommandError UploadChunk(std::span<const uint8_t> p);
   CommandError UploadCommit(std::span<const uint8_t> p);
   CommandError PoseCommand(MsgType type, std::span<const uint8_t> p);
+  CommandError TeachCommand(std::span<const uint8_t> p, uint32_t cmd_seq, CommandResult& result);
 
   UploadSink& uploads_;
   ParamSink& params_;
   PoseSink* pose_;
   CaptureSink* capture_;
+  TeachSink* teach_;
   bool uploading_ = false;
   UploadTarget target_ = UploadTarget::kCalibration;
   size_t total_len_ = 0;

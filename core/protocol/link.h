@@ -70,6 +70,14 @@ inline constexpr size_t kCaptureFrameBytes = 48;
 inline constexpr size_t kCaptureChunkHeaderBytes = 10;
 inline constexpr size_t kCaptureEndBytes = 7;
 
+/// Where the ball lies for a teach: a floor point (robot frame, m) or a pixel of one camera.
+enum class TeachWhere : uint8_t { kFloorPoint = 0, kOmniPixel = 1, kPerspPixel = 2 };
+inline constexpr size_t kTeachBallBytes = 9;  // where u8 | a f32 | b f32
+struct TeachRequest {
+  TeachWhere where = TeachWhere::kFloorPoint;
+  float a = 0, b = 0;  // x, y (m) or u, v (px)
+};
+
 struct CaptureRequest {
   uint16_t count = 0;
   CaptureMode mode = CaptureMode::kFull;

@@ -52,6 +52,7 @@ enum class MsgType : uint8_t {
   kClockSync = 0x28,     // NTP-style request: answered by kClockSyncReply
   kCaptureStart = 0x29,  // stream the next N pairs (ack / error)
   kCaptureStop = 0x2A,   // end a running capture (ack; kCaptureEnd follows)
+  kTeachBall = 0x2B,     // learn the ball's colour where it lies (ack / error after a pair)
 };
 
 /// 16-bit hash of the payload layouts below; bumped automatically when they change, so a

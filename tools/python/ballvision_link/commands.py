@@ -11,15 +11,18 @@ from .protocol import encode_frame
 MSG_ACK, MSG_ERROR = 0x10, 0x11
 REQUEST_STATUS, SET_PARAM, UPLOAD_BEGIN, UPLOAD_CHUNK, UPLOAD_COMMIT = 0x20, 0x21, 0x22, 0x23, 0x24
 SET_FIELD_HALF, ODOMETRY, SET_POSE = 0x25, 0x26, 0x27
-CLOCK_SYNC, CAPTURE_START, CAPTURE_STOP = 0x28, 0x29, 0x2A
+CLOCK_SYNC, CAPTURE_START, CAPTURE_STOP, TEACH_BALL = 0x28, 0x29, 0x2A, 0x2B
+TEACH_FLOOR, TEACH_OMNI_PIXEL, TEACH_PERSP_PIXEL = 0, 1, 2
 CAPTURE_FULL, CAPTURE_HALF, CAPTURE_QUARTER = 0, 1, 2
 CAPTURE_OMNI, CAPTURE_PERSP = 1, 2
 TARGET_CALIBRATION, TARGET_LUT = 1, 2
 MAX_CHUNK = 512
 ERRORS = {1: "unknown command", 2: "bad length", 3: "bad target", 4: "no upload", 5: "bad offset",
           6: "too large", 7: "verify failed", 8: "storage failed", 9: "unknown parameter",
-          10: "bad value", 11: "incomplete", 12: "busy (a capture is running)",
-          13: "unsupported by this board", 14: "no capture running"}
+          10: "bad value", 11: "incomplete", 12: "busy (a capture, an open upload or a pending teach)",
+          13: "unsupported by this board", 14: "no capture running",
+          15: "no ball-coloured region where the ball was said to lie",
+          16: "the taught colour would take the field"}
 
 
 def request_status(seq: int) -> bytes:
@@ -61,6 +64,15 @@ def capture_start(seq: int, count: int, mode: int = CAPTURE_FULL,
     if mode not in (CAPTURE_FULL, CAPTURE_HALF, CAPTURE_QUARTER) or cameras not in (1, 2, 3):
         raise ValueError("capture: mode 0..2, cameras 1..3")
     return encode_frame(CAPTURE_START, seq, struct.pack("<HBB", count, mode, cameras))
+
+
+def teach_ball(seq: int, where: int, a: float, b: float) -> bytes:
+    """The ball lies at floor point (a, b) m (where=TEACH_FLOOR, robot frame) or at pixel (a, b)
+    of the omni / persp camera: the coprocessor learns its colour from the next frame pair and
+    stores the new table as an upload would; ack or error follows that pair."""
+    if where not in (TEACH_FLOOR, TEACH_OMNI_PIXEL, TEACH_PERSP_PIXEL):
+        raise ValueError("teach: where must be 0 (floor), 1 (omni pixel) or 2 (persp pixel)")
+    return encode_frame(TEACH_BALL, seq, struct.pack("<Bff", where, a, b))
 
 
 def capture_stop(seq: int) -> bytes:
