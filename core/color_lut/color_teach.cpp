@@ -141,19 +141,21 @@ void NarrowHueWindow(const BallColorStats& ball, const HueHistogram& background,
   float mean = ball.hue_mean_deg();
   while (mean - centre > 180.0f) mean -= 360.0f;
   while (mean - centre <= -180.0f) mean += 360.0f;
-  const float qs_lo[] = {-1, 0.005f, 0.01f, 0.02f, 0.03f, 0.05f, 0.08f};
-  const float qs_hi[] = {-1, 0.995f, 0.99f, 0.98f, 0.97f, 0.95f, 0.92f};
+  // Never into the central 90 % of the ball's hues, and 2 deg beyond the percentile: a window
+  // fitted to the frames taught from must still hold the ball in the light of other frames.
+  const float qs_lo[] = {-1, 0.005f, 0.01f, 0.02f, 0.03f, 0.05f};
+  const float qs_hi[] = {-1, 0.995f, 0.99f, 0.98f, 0.97f, 0.95f};
   float best_lo = m.hue_min_deg, best_hi = m.hue_max_deg, best = 3.4e38f;
   for (float ql : qs_lo) {
     float lo = m.hue_min_deg;
     if (ql >= 0) {
-      const float p = HuePercentile(ball.hue(), mean, ql) - 1.0f;
+      const float p = HuePercentile(ball.hue(), mean, ql) - 2.0f;
       lo = p > m.hue_min_deg ? p : m.hue_min_deg;
     }
     for (float qh : qs_hi) {
       float hi = m.hue_max_deg;
       if (qh >= 0) {
-        const float p = HuePercentile(ball.hue(), mean, qh) + 1.0f;
+        const float p = HuePercentile(ball.hue(), mean, qh) + 2.0f;
         hi = p < m.hue_max_deg ? p : m.hue_max_deg;
       }
       if (hi - lo < 6.0f) continue;

@@ -50,8 +50,8 @@ struct HueHistogram {
   void AddIfInModelIgnoringHue(const BallColorTest& test, const Yuv& p, float weight = 1.0f);
 };
 
-/// Narrows m's hue window to the pair of ball-hue percentiles (0.5..8 % at either end) that
-/// costs the fewest ball pixels plus `background_weight` x the background samples inside.
+/// Narrows m's hue window to the pair of ball-hue percentiles (0.5..5 % at either end, 2 deg out)
+/// that costs the fewest ball pixels plus `background_weight` x the background samples inside.
 void NarrowHueWindow(const BallColorStats& ball, const HueHistogram& background,
                      float background_weight, BallColorModel& m);
 

@@ -17,7 +17,8 @@ namespace {
 constexpr double kRadToDeg = 57.29577951308232;
 constexpr float kGrowHueMarginDeg = 10.0f;  // the grow test is the start window widened by this
 constexpr float kGrowChromaMin = 0.10f;     // ... and this relative chroma floor
-constexpr int kBackgroundStride = 8;        // background sampled every 8th pixel of every 8th row
+constexpr int kBackgroundStride = 8;
+constexpr double kAcquireHueTolDeg = 8.0;  // background sampled every 8th pixel of every 8th row
 constexpr double kBackgroundSampleWeight = kBackgroundStride * kBackgroundStride;
 
 double HueDeg(const Yuv& p) { return std::atan2(p.v - 128.0, p.u - 128.0) * kRadToDeg; }
@@ -169,6 +170,16 @@ void NarrowAgainstBackground(const std::vector<Yuv>& ball, const std::vector<Yuv
 
 namespace {
 
+double MeanHueOf(const std::vector<Yuv>& px) {
+  double sc = 0, ss = 0;
+  for (const Yuv& p : px) {
+    if (RelChroma(p) < 0.25) continue;
+    sc += std::cos(HueDeg(p) / kRadToDeg);
+    ss += std::sin(HueDeg(p) / kRadToDeg);
+  }
+  return std::atan2(ss, sc) * kRadToDeg;
+}
+
 struct Collected {
   std::vector<Yuv> ball, background;
   int frames[2] = {0, 0};
@@ -177,8 +188,26 @@ struct Collected {
 
 // One camera: track the ball with `model`'s table (from the click when it names this camera),
 // grow it in every frame it was found in, sample the rest of those frames as background.
+// Circular mean hue of the chromatic pixels inside 0.6 of a candidate's radius.
+double MeanHue(const YuyvImage& img, const BallDetection& d) {
+  double sc = 0, ss = 0;
+  const float r = 0.6f * d.radius_px;
+  for (int v = static_cast<int>(d.v_px - r); v <= static_cast<int>(d.v_px + r); ++v) {
+    for (int u = static_cast<int>(d.u_px - r); u <= static_cast<int>(d.u_px + r); ++u) {
+      if (!img.contains(u, v) || std::hypot(u - d.u_px, v - d.v_px) > r) continue;
+      const Yuv p = img.at(u, v);
+      if (RelChroma(p) < 0.25) continue;
+      const double h = HueDeg(p) / kRadToDeg;
+      sc += std::cos(h);
+      ss += std::sin(h);
+    }
+  }
+  return std::atan2(ss, sc) * kRadToDeg;
+}
+
 bool CollectCamera(const host::Sequence& seq, const FinderSetup& setup, const TeachOptions& opt,
-                   const BallColorModel& model, Camera cam, Collected& out, std::string& error) {
+                   const BallColorModel& model, const double* target_hue, Camera cam,
+                   Collected& out, std::string& error) {
   static ColorLut lut;
   if (const Status st = BuildLut(model, lut); !st.ok()) {
     error = st.message();
@@ -229,6 +258,40 @@ bool CollectCamera(const host::Sequence& seq, const FinderSetup& setup, const Te
     if (!Track(pass, fwd, &from, first[0].r, found, error) ||
         !Track(pass, back, &from, first[0].r, found, error)) {
       return false;
+    }
+  } else if (target_hue != nullptr) {
+    // The other camera of a click: start from the first frame with a candidate, at the one
+    // whose colour is nearest the clicked ball's (a red box beside an orange ball is as round
+    // and larger), within 8 deg.
+    for (size_t at = 0; at < order.size(); ++at) {
+      const host::SequenceEntry& e = seq.entries[order[at]];
+      const std::string& path = c == 0 ? e.omni_path : e.persp_path;
+      if (path.empty()) continue;
+      Image img;
+      if (!LoadImage(path, img, error)) return false;
+      BallDetection det;
+      FrontEndStats stats;
+      if (!finder->Find(img.view(), lut, nullptr, det, stats).ok()) {
+        error = "finder failed on " + path;
+        return false;
+      }
+      BallDetection cand[8];
+      const size_t n = finder->Candidates(cand);
+      double best = kAcquireHueTolDeg;
+      const BallDetection* pick = nullptr;
+      for (size_t i = 0; i < n; ++i) {
+        const double d =
+            std::fabs(UnwrapNear(MeanHue(img.view(), cand[i]), *target_hue) - *target_hue);
+        if (d < best) {
+          best = d;
+          pick = &cand[i];
+        }
+      }
+      if (pick == nullptr) continue;
+      const Prediction from{pick->u_px, pick->v_px, std::max(4.0f, pick->radius_px)};
+      const std::vector<size_t> rest(order.begin() + static_cast<ptrdiff_t>(at), order.end());
+      if (!Track(pass, rest, &from, pick->radius_px, found, error)) return false;
+      break;
     }
   } else if (!Track(pass, order, nullptr, 0.0f, found, error)) {
     return false;
@@ -308,12 +371,16 @@ bool TeachSequence(const std::string& dir, const FinderSetup& setup, const Teach
   // red and orange things around it that the broad starting model does, and learns from all.
   BallColorModel model = opt.start;
   Collected got;
+  double learnt_hue = 0;
   for (int pass = 0; pass < 2; ++pass) {
     got = Collected{};
     for (int c = 0; c < 2; ++c) {
       const bool use =
           opt.cameras[c] && (pass == 1 || !opt.click || static_cast<int>(opt.click_camera) == c);
-      if (use && !CollectCamera(seq, setup, opt, model, static_cast<Camera>(c), got, error)) {
+      // Pass 2, the camera not clicked: acquired by the colour pass 1 learnt.
+      const bool by_hue = pass == 1 && opt.click && static_cast<int>(opt.click_camera) != c;
+      if (use && !CollectCamera(seq, setup, opt, model, by_hue ? &learnt_hue : nullptr,
+                                static_cast<Camera>(c), got, error)) {
         return false;
       }
     }
@@ -324,6 +391,7 @@ bool TeachSequence(const std::string& dir, const FinderSetup& setup, const Teach
           (opt.click ? std::string() : std::string(" (give a click: --click INDEX:CAMERA:U,V)"));
       return false;
     }
+    learnt_hue = MeanHueOf(got.ball);
     std::string why;
     if (!FitBallColorModel(got.ball, opt.start, model, why)) {
       error = why;
