@@ -11,7 +11,10 @@ namespace {
 constexpr float kRimMarginPx = 3.f;  // a ball this close to the mirror rim may be cut by it
 constexpr float kMaxApparentSizeRatio = 1.25f;  // persp radius / a ball's at the stereo range
 constexpr float kStereoGapM = 0.08f, kStereoGapPerM = 0.02f;
-constexpr size_t kStereoCandidates = 4;  // per camera, in the acquisition choice
+constexpr size_t kStereoCandidates = 4;
+// A track outside the field is kept only while it moves at least this fast (a ball rolling out;
+// the distractors behind a line stand still).
+constexpr float kMinRollOutSpeedMps = 0.3f;  // per camera, in the acquisition choice
 constexpr int kMinGoalRaysWithoutPose = 3;
 
 float AngleBetween(const Eigen::Vector3f& a, const Eigen::Vector3f& b) {
@@ -407,8 +410,9 @@ Status Pipeline::Process(const FrameInput& in, BallState& out) {
   }
   RefreshFieldRule();
   const bool have_field_pose = field_rule_.active;
-  omni_finder_.set_reject_outside(have_field_pose);
-  persp_finder_.set_reject_outside(have_field_pose);
+  // Outside the field a ball is only acquired never: a tracked one may roll out over a line.
+  omni_finder_.set_reject_outside(have_field_pose && !pred_omni_.valid);
+  persp_finder_.set_reject_outside(have_field_pose && !pred_persp_.valid);
 
   // 3. Front end per camera present.
   if (in.omni.valid() && cal.omni.valid) out.omni = Detect(omni_finder_, in.omni, pred_omni_);
@@ -547,12 +551,21 @@ Status Pipeline::Process(const FrameInput& in, BallState& out) {
   }
   filter_.FillState(in.t_us, config_.predict_ahead_us, out);
   // A track that the pose puts outside the field was locked on something else (a spare ball
-  // behind the goal line): drop it, so the next frame chooses afresh.
-  if (have_field_pose && out.found && !InField(out.x_m, out.y_m)) {
-    filter_.Reset();
-    ++stats_.tracks_dropped_out_of_field;
-    out.found = false;
-    out.flags |= kFlagOutOfField | kFlagLost;
+  // behind the goal line, a red box): drop it, so the next frame chooses afresh. Unless it was
+  // inside and is rolling out: then it stays tracked, flagged out of the field, while it moves.
+  if (!out.found) {
+    track_seen_in_field_ = false;
+  } else if (have_field_pose) {
+    if (InField(out.x_m, out.y_m)) {
+      track_seen_in_field_ = true;
+    } else if (track_seen_in_field_ && std::hypot(out.vx_mps, out.vy_mps) >= kMinRollOutSpeedMps) {
+      out.flags |= kFlagOutOfField;
+    } else {
+      filter_.Reset();
+      ++stats_.tracks_dropped_out_of_field;
+      out.found = false;
+      out.flags |= kFlagOutOfField | kFlagLost;
+    }
   }
   return Status();
 }

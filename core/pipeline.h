@@ -178,6 +178,7 @@ class Pipeline {
   Localiser localiser_;
   FieldFeatures features_;
   bool features_ready_ = false;
+  bool track_seen_in_field_ = false;  // the current track was inside the field at some frame
   float odometry_[3] = {};
   bool odometry_pending_ = false;
   struct FieldRule {  // InField's pose, refreshed when the pose changes (RefreshFieldRule)
