@@ -14,7 +14,9 @@ constexpr float kStereoGapM = 0.08f, kStereoGapPerM = 0.02f;
 constexpr size_t kStereoCandidates = 4;
 // A track outside the field is kept only while it moves at least this fast (a ball rolling out;
 // the distractors behind a line stand still).
-constexpr float kMinRollOutSpeedMps = 0.3f;  // per camera, in the acquisition choice
+constexpr float kMinRollOutSpeedMps = 0.3f;
+constexpr float kAdaptMaxGapM =
+    0.02f;  // rays of a confirmed ball meet this close  // per camera, in the acquisition choice
 constexpr int kMinGoalRaysWithoutPose = 3;
 
 float AngleBetween(const Eigen::Vector3f& a, const Eigen::Vector3f& b) {
@@ -550,6 +552,23 @@ Status Pipeline::Process(const FrameInput& in, BallState& out) {
     out.flags |= f;
   }
   filter_.FillState(in.t_us, config_.predict_ahead_us, out);
+  // 7. Colour adaptation: only what both cameras agree on is the ball (rays within 2 cm, the
+  // filter took the measurement); a rebuilt table's chroma box goes to the finders.
+  if (adapter_ != nullptr && adapter_->active()) {
+    const bool confirmed = out.found && out.omni.found && out.persp.found &&
+                           (out.flags & kFlagTriangulated) && out.ray_gap_m <= kAdaptMaxGapM &&
+                           !(meas_.filter_flags & (kFlagOutlierRejected | kFlagOutOfField));
+    if (confirmed) {
+      adapter_->Observe(in.omni, out.omni);
+      adapter_->Observe(in.persp, out.persp);
+    }
+    const uint32_t rebuilt = adapter_->stats().rebuilds_done;
+    adapter_->Step();
+    if (adapter_->stats().rebuilds_done != rebuilt) {
+      omni_finder_.set_ball_box(adapter_->ball_box());
+      persp_finder_.set_ball_box(adapter_->ball_box());
+    }
+  }
   // A track that the pose puts outside the field was locked on something else (a spare ball
   // behind the goal line, a red box): drop it, so the next frame chooses afresh. Unless it was
   // inside and is rolling out: then it stays tracked, flagged out of the field, while it moves.

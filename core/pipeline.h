@@ -7,6 +7,7 @@
 
 #include "core/ball_filter/ball_filter.h"
 #include "core/calibration/calibration.h"
+#include "core/color_lut/color_adapt.h"
 #include "core/common/ball_state.h"
 #include "core/common/image.h"
 #include "core/common/status.h"
@@ -111,6 +112,9 @@ class Pipeline {
   const MeasurementInfo& last_measurement() const { return meas_; }
   /// Forgets the track (e.g. between unrelated stills); calibration and tables stay.
   void ResetTrack() { filter_.Reset(); }
+  /// Online colour adaptation (core/color_lut/color_adapt.h), fed with the detections both
+  /// cameras confirm; null turns it off. The adapter must outlive the pipeline's use of it.
+  void SetColorAdapter(ColorAdapter* adapter) { adapter_ = adapter; }
   const ScanlineTableBase& omni_scan() const { return omni_scan_; }
   const ScanlineTableBase& persp_scan() const { return persp_scan_; }
   const ColorLut* lut() const { return lut_; }
@@ -179,6 +183,7 @@ class Pipeline {
   FieldFeatures features_;
   bool features_ready_ = false;
   bool track_seen_in_field_ = false;  // the current track was inside the field at some frame
+  ColorAdapter* adapter_ = nullptr;   // online colour adaptation, off when null
   float odometry_[3] = {};
   bool odometry_pending_ = false;
   struct FieldRule {  // InField's pose, refreshed when the pose changes (RefreshFieldRule)

@@ -44,7 +44,10 @@ MainLoop::MainLoop(hal::Camera& camera, hal::Uart& uart, hal::Clock& clock, hal:
       config_(config),
       camera_bad_input_(camera_bad_input),
       upload_buffer_(upload_buffer.size() >= kUploadBufferBytes ? upload_buffer
-                                                                : std::span<uint8_t>()) {}
+                                                                : std::span<uint8_t>()) {
+  static_assert(kAdapterOffset % alignof(ColorAdapter) == 0);
+  if (!upload_buffer_.empty()) adapter_ = new (upload_buffer_.data() + kAdapterOffset) ColorAdapter;
+}
 
 BlobState MainLoop::ReadSlotPair(const int (&slots)[2], BlobKind kind, uint16_t max_version,
                                  std::span<const uint8_t>& blob) {
@@ -91,6 +94,8 @@ BlobState MainLoop::LoadLut() {
 BlobState MainLoop::UseBuiltInLut(BlobState stored) {
   if (!BuildLut(BallColorModel{}, lut_).ok()) return stored;
   status_.lut_id = lut_.Id();
+  lut_model_ = BallColorModel{};
+  lut_model_known_ = true;
   return stored == BlobState::kCorrupt ? BlobState::kBuiltInCorrupt : BlobState::kBuiltInMissing;
 }
 
@@ -102,6 +107,7 @@ Status MainLoop::Init() {
   status_.calibration_state = static_cast<uint8_t>(cal);
   status_.lut_state = static_cast<uint8_t>(lut);
   InitPipeline();
+  if (config_.color_adaptation) SetAdaptation(true).IgnoreError();  // no model: stays off
 
   const Status camera = camera_.Start();
   if (!camera.ok()) status_.fault_flags |= kFaultCameraStart;
@@ -177,9 +183,11 @@ Status MainLoop::Uploads::Commit(protocol::UploadTarget target, uint32_t total_c
     m.status_.calibration_id = m.calibration_.calibration_id;
     m.status_.calibration_state = static_cast<uint8_t>(BlobState::kOk);
   } else {
+    m.SetAdaptation(false).IgnoreError();  // an uploaded table does not carry its model
     BV_TRY(ParseLut(blob, m.lut_));
     m.status_.lut_id = m.lut_.Id();
     m.status_.lut_state = static_cast<uint8_t>(BlobState::kOk);
+    m.lut_model_known_ = false;
   }
   m.InitPipeline();
   return Status();
@@ -255,7 +263,11 @@ protocol::CommandError MainLoop::TeachAndStore(const FrameInput& in, uint32_t& d
   if (!ParseLut(blob.first(*n), lut_).ok()) return CommandError::kStorageFailed;
   status_.lut_id = lut_.Id();
   status_.lut_state = static_cast<uint8_t>(BlobState::kOk);
+  lut_model_ = model;
+  lut_model_known_ = true;
+  const bool adapting = adapter_ != nullptr && adapter_->active();
   InitPipeline();
+  if (adapting) SetAdaptation(true).IgnoreError();  // from the taught model on
   return CommandError::kNone;
 }
 
@@ -301,9 +313,46 @@ Status MainLoop::Params::SetParam(uint16_t id, float value) {
       pose.known = id == kParamRobotPoseKnown ? value >= 0.5f : true;
       return loop_.pipeline_.SetRobotPose(pose);
     }
+    case kParamColorAdaptation:
+      if (!(value == 0.0f || value == 1.0f)) return Status(StatusCode::kOutOfRange, "0 or 1");
+      return loop_.SetAdaptation(value == 1.0f);
+    case kParamSaveColorTable:
+      if (value != 1.0f) return Status(StatusCode::kOutOfRange, "1 saves");
+      return loop_.StoreLut() == protocol::CommandError::kNone
+                 ? Status()
+                 : Status(StatusCode::kInvalidArgument, "the table could not be stored");
     default:
       return Status(StatusCode::kNotFound, "unknown parameter");
   }
+}
+
+Status MainLoop::SetAdaptation(bool on) {
+  if (!on) {
+    if (adapter_ != nullptr) adapter_->Stop();
+    pipeline_.SetColorAdapter(nullptr);
+    return Status();
+  }
+  if (adapter_ == nullptr || !lut_model_known_) {
+    return Status(StatusCode::kFailedPrecondition,
+                  "adaptation needs the model of the table in use (built-in or taught)");
+  }
+  adapter_->Start(lut_model_, &lut_);
+  pipeline_.SetColorAdapter(adapter_);
+  return Status();
+}
+
+protocol::CommandError MainLoop::StoreLut() {
+  if (upload_buffer_.empty()) return protocol::CommandError::kUnsupported;
+  const std::span<uint8_t> blob = upload_buffer_.first(kBlobScratchBytes);
+  const std::span<uint8_t> work = upload_buffer_.subspan(kBlobScratchBytes, kBlobScratchBytes);
+  const Result<size_t> n = SerializeLut(lut_, blob);
+  if (!n.ok()) return protocol::CommandError::kStorageFailed;
+  hal::BlobStore store(storage_, config_.lut_slots[0], config_.lut_slots[1], BlobKind::kColorLut,
+                       kColorLutBlobVersion);
+  if (!store.Save(blob.first(*n), work).ok()) return protocol::CommandError::kStorageFailed;
+  status_.lut_id = lut_.Id();
+  status_.lut_state = static_cast<uint8_t>(BlobState::kOk);
+  return protocol::CommandError::kNone;
 }
 
 Status MainLoop::Hints::SetRobotPose(bool known, float x_m, float y_m, float heading_rad) {

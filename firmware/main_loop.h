@@ -9,6 +9,7 @@
 #include <span>
 
 #include "core/calibration/calibration.h"
+#include "core/color_lut/color_adapt.h"
 #include "core/color_lut/color_lut.h"
 #include "core/common/blob.h"
 #include "core/common/status.h"
@@ -27,8 +28,10 @@ inline constexpr size_t kBlobScratchBytes =
     kCalibrationBlobMaxBytes > kColorLutBlobBytes ? kCalibrationBlobMaxBytes : kColorLutBlobBytes;
 
 /// Upload buffer: a staging half for the incoming blob and a verification half (read-back and
-/// the trial parse); in external RAM on the boards.
-inline constexpr size_t kUploadBufferBytes = 2 * kBlobScratchBytes;
+/// the trial parse), then the colour adapter's state (core/color_lut/color_adapt.h); in
+/// external RAM on the boards.
+inline constexpr size_t kAdapterOffset = 2 * kBlobScratchBytes;
+inline constexpr size_t kUploadBufferBytes = kAdapterOffset + sizeof(ColorAdapter);
 
 /// Received bytes decoded per Poll() at most: a full receive ring (2 KB), so commands keep up
 /// with the line while a flood cannot hold up the frame loop.
@@ -69,6 +72,12 @@ enum ParamId : uint16_t {
   kParamRobotFieldY = 11,      // m, |y| <= 20
   kParamRobotHeadingRad = 12,  // rad, |h| <= 10
   kParamRobotPoseKnown = 13,   // 0 or 1
+  // Online colour adaptation (docs/protocol.md, "Teach"): 1 on, 0 off (the table stays as
+  // adapted); needs a table whose model the device knows (built-in or taught). Writing 1 to
+  // kParamSaveColorTable stores the table in use A/B, as an upload: only then does an adapted
+  // table survive a reboot.
+  kParamColorAdaptation = 20,
+  kParamSaveColorTable = 21,
 };
 
 struct MainLoopConfig {
@@ -79,6 +88,7 @@ struct MainLoopConfig {
   /// Capture chunks queued per Poll() at most. At 921600 Bd the queue limit allows ~2 anyway;
   /// this bounds the work where the UART drains faster (QEMU's is instantaneous).
   uint32_t capture_chunks_per_poll = 4;
+  bool color_adaptation = false;  // at boot (the parameter switches it later)
   PipelineConfig pipeline;
 };
 
@@ -212,6 +222,9 @@ class MainLoop {
   /// Teaches from `in` (the pending request), stores and activates the table, replies.
   void RunTeach(const FrameInput& in);
   protocol::CommandError TeachAndStore(const FrameInput& in, uint32_t& detail);
+  /// The table in use into the A/B slots (the upload buffer's first half as the blob).
+  protocol::CommandError StoreLut();
+  Status SetAdaptation(bool on);
   struct CaptureState {
     bool active = false;
     bool holding = false;  // `pair` is held in the camera for streaming
@@ -277,6 +290,9 @@ class MainLoop {
   Capture capture_sink_{*this};
   Teacher teacher_{*this};
   TeachPending teach_;
+  ColorAdapter* adapter_ = nullptr;  // in the upload buffer; null without one
+  BallColorModel lut_model_;         // what the table in use was built from, if known
+  bool lut_model_known_ = false;
   protocol::Decoder rx_;
   protocol::CommandHandler commands_{uploads_, params_, &hints_, &capture_sink_, &teacher_};
 };

@@ -231,3 +231,30 @@ TEST(LutTrainTest, TeachFromOneSeedCopesWithShading) {
 
 }  // namespace
 }  // namespace bv
+
+namespace bv {
+namespace {
+
+TEST(ColorLutTest, BoundsOfRowBandsUniteToTheWholeTablesBounds) {
+  const auto lut = Pattern();
+  for (ColorClass c : {ColorClass::kBall, ColorClass::kField, ColorClass::kLine}) {
+    ChromaBox acc;
+    acc.empty = true;
+    for (uint32_t first = 0; first < 64; first += 4)
+      acc = Union(acc, lut->Bounds(c, first, first + 4));
+    const ChromaBox all = lut->Bounds(c);
+    EXPECT_EQ(acc.empty, all.empty);
+    EXPECT_EQ(acc.u_min, all.u_min);
+    EXPECT_EQ(acc.u_max, all.u_max);
+    EXPECT_EQ(acc.v_min, all.v_min);
+    EXPECT_EQ(acc.v_max, all.v_max);
+  }
+  // A band without the class is empty.
+  ColorLut one;
+  one.Set(ColorLut::Index(100, 200, 40), ColorClass::kBall);
+  EXPECT_TRUE(one.Bounds(ColorClass::kBall, 0, 50).empty);
+  EXPECT_FALSE(one.Bounds(ColorClass::kBall, 50, 51).empty);
+}
+
+}  // namespace
+}  // namespace bv

@@ -706,6 +706,44 @@ TEST_F(MainLoopCommandsTest, TeachRefusalsKeepTheOldTable) {
   std::memset(g_frame, 128, sizeof g_frame);
 }
 
+TEST_F(MainLoopCommandsTest, AdaptationNeedsAKnownModelAndOnlyASaveMakesItPermanent) {
+  const auto param = [&](uint16_t id, float value) {
+    uint8_t p[6];
+    ByteWriter w(p);
+    w.U16(id);
+    w.F32(value);
+    Command(protocol::MsgType::kSetParam, w.written());
+  };
+  Start();  // no stored table: the built-in model, known
+  int acks, errors, statuses;
+  uint8_t code = 0;
+  param(kParamColorAdaptation, 1.0f);
+  param(kParamColorAdaptation, 0.5f);  // neither 0 nor 1
+  Drain();
+  Replies(acks, errors, statuses, code);
+  EXPECT_EQ(acks, 1);
+  EXPECT_EQ(errors, 1);
+  EXPECT_EQ(loop_->status().lut_state,
+            static_cast<uint8_t>(protocol::BlobState::kBuiltInMissing))
+      << "adapting stores nothing";
+  param(kParamSaveColorTable, 1.0f);  // the table in use, stored as an upload
+  Drain();
+  Replies(acks, errors, statuses, code);
+  EXPECT_EQ(acks, 2);
+  EXPECT_EQ(loop_->status().lut_state, static_cast<uint8_t>(protocol::BlobState::kOk));
+  MainLoop reboot(camera_, uart_, clock_, storage_, scratch_);
+  ASSERT_TRUE(reboot.Init().ok());
+  EXPECT_EQ(reboot.status().lut_id, loop_->status().lut_id);
+  // After an uploaded table (its model unknown) adaptation cannot start.
+  const std::span<uint8_t> b = RuleLutBlob();
+  Upload(protocol::UploadTarget::kLut, b, Crc32(b));
+  param(kParamColorAdaptation, 1.0f);
+  Drain();
+  Replies(acks, errors, statuses, code);
+  EXPECT_EQ(errors, 2);
+  EXPECT_EQ(code, static_cast<uint8_t>(protocol::CommandError::kBadValue));
+}
+
 TEST_F(MainLoopCommandsTest, CorruptUploadIsRefusedAndNothingChanges) {
   Start();
   const std::span<uint8_t> b = RuleLutBlob();

@@ -51,10 +51,15 @@ uint32_t EntriesCrc(uint32_t crc, const ColorLut& lut) {
 
 uint32_t ColorLut::Id() const { return EntriesCrc(0, *this); }
 
-ChromaBox ColorLut::Bounds(ColorClass c) const {
+ChromaBox ColorLut::Bounds(ColorClass c, uint32_t u_first, uint32_t u_end) const {
   constexpr uint32_t kUCells = 1u << kUBits, kVCells = 1u << kVBits;
   uint32_t umin = kUCells, umax = 0, vmin = kVCells, vmax = 0;
   for (uint32_t i = 0; i < kEntries; ++i) {
+    const uint32_t row = (i >> kVBits) & (kUCells - 1);
+    if (row < u_first || row >= u_end) {
+      i |= kVCells - 1;  // skip the rest of this U row
+      continue;
+    }
     if (at(i) != c) continue;
     const uint32_t uc = (i >> kVBits) & (kUCells - 1), vc = i & (kVCells - 1);
     umin = uc < umin ? uc : umin;
@@ -73,6 +78,17 @@ ChromaBox ColorLut::Bounds(ColorClass c) const {
   box.v_min = static_cast<uint8_t>(vmin << (8 - kVBits));
   box.v_max = static_cast<uint8_t>(((vmax + 1) << (8 - kVBits)) - 1);
   return box;
+}
+
+ChromaBox Union(const ChromaBox& a, const ChromaBox& b) {
+  if (a.empty) return b;
+  if (b.empty) return a;
+  ChromaBox out;
+  out.u_min = a.u_min < b.u_min ? a.u_min : b.u_min;
+  out.u_max = a.u_max > b.u_max ? a.u_max : b.u_max;
+  out.v_min = a.v_min < b.v_min ? a.v_min : b.v_min;
+  out.v_max = a.v_max > b.v_max ? a.v_max : b.v_max;
+  return out;
 }
 
 Result<size_t> SerializeLut(const ColorLut& lut, std::span<uint8_t> out) {

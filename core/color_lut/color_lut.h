@@ -33,6 +33,9 @@ struct ChromaBox {
   }
 };
 
+/// The smallest box holding both.
+ChromaBox Union(const ChromaBox& a, const ChromaBox& b);
+
 class ColorLut {
  public:
   static constexpr int kYBits = 4;
@@ -68,8 +71,9 @@ class ColorLut {
   void CopyEntries(uint32_t first, std::span<uint8_t> out) const;
   /// CRC-32 of the table, one byte per cell (RigCalibration::lut_id).
   uint32_t Id() const;
-  /// Chroma box of class `c` (a scan over all cells: call once per LUT, not per frame).
-  ChromaBox Bounds(ColorClass c) const;
+  /// Chroma box of class `c` over the cells of U rows [u_first, u_end) (a scan: once per LUT,
+  /// or a few rows per frame, not every frame).
+  ChromaBox Bounds(ColorClass c, uint32_t u_first = 0, uint32_t u_end = 1u << kUBits) const;
 
  private:
   // 4 bits per cell halve the RAM (the 128 KB budget); classes fit in 4 bits.

@@ -84,7 +84,14 @@ ColorClass BackgroundClass(uint8_t y, uint8_t u, uint8_t v) {
 }
 
 Status BuildLut(const BallColorModel& m, ColorLut& out) {
+  return BuildLutRows(m, out, 0, 1 << ColorLut::kUBits);
+}
+
+Status BuildLutRows(const BallColorModel& m, ColorLut& out, int u_first, int u_end) {
   BV_TRY(ValidateBallColorModel(m));
+  if (u_first < 0 || u_end > (1 << ColorLut::kUBits) || u_first > u_end) {
+    return Status(StatusCode::kInvalidArgument, "colour model: U rows outside the table");
+  }
   const BallColorTest p(m);
   constexpr int kYCells = 1 << ColorLut::kYBits, kCCells = 1 << ColorLut::kUBits;
   constexpr int kYStep = 1 << (8 - ColorLut::kYBits), kCStep = 1 << (8 - ColorLut::kUBits);
@@ -98,7 +105,7 @@ Status BuildLut(const BallColorModel& m, ColorLut& out) {
     lo2[k] = in_range ? f * f * fy * fy : 1e30f;
     hi2[k] = m.chroma_max * m.chroma_max * fy * fy;
   }
-  for (int cu = 0; cu < kCCells; ++cu) {
+  for (int cu = u_first; cu < u_end; ++cu) {
     for (int cv = 0; cv < kCCells; ++cv) {
       // The cell's 4 chroma samples: in the hue window or not, and their squared chroma.
       float c2[4];

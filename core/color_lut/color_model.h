@@ -62,5 +62,8 @@ ColorClass BackgroundClass(uint8_t y, uint8_t u, uint8_t v);
 /// background class. The model must be valid (kInvalidArgument, table untouched, otherwise).
 /// Allocation-free: the device runs it at boot when it has no stored table, and after a teach.
 Status BuildLut(const BallColorModel& m, ColorLut& out);
+/// The same for the cells with U index in [u_first, u_end) only (of 64): a table rebuilt a few
+/// rows per frame (online adaptation) never costs a frame more than its share.
+Status BuildLutRows(const BallColorModel& m, ColorLut& out, int u_first, int u_end);
 
 }  // namespace bv

@@ -66,6 +66,18 @@ float HueMean(float sum_cos, float sum_sin) { return std::atan2(sum_sin, sum_cos
 
 void BallColorStats::Clear() { *this = BallColorStats(); }
 
+void BallColorStats::Scale(float factor) {
+  for (float& x : hue_) x *= factor;
+  for (float& x : chroma_dark_) x *= factor;
+  for (float& x : chroma_bright_) x *= factor;
+  for (float& x : chroma_all_) x *= factor;
+  for (float& x : luma_) x *= factor;
+  sum_cos_ *= factor;
+  sum_sin_ *= factor;
+  n_ *= factor;
+  n_hue_ *= factor;
+}
+
 void BallColorStats::Add(const Yuv& p, float weight) {
   const float du = static_cast<float>(p.u) - 128.0f, dv = static_cast<float>(p.v) - 128.0f;
   const float c = std::sqrt(du * du + dv * dv) / (p.y > 0 ? static_cast<float>(p.y) : 1.0f);

@@ -22,6 +22,8 @@ class BallColorStats {
 
   void Clear();
   void Add(const Yuv& p, float weight = 1.0f);
+  /// Multiplies every count by `factor` (decay: old light counts less).
+  void Scale(float factor);
   float count() const { return n_; }
   float hue_count() const { return n_hue_; }
   const float* hue() const { return hue_; }

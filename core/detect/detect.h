@@ -95,6 +95,8 @@ class BallFinder {
   /// While on, a candidate the in-field predicate calls outside is refused, not just disfavoured
   /// (the caller turns it on only while it trusts its field pose).
   void set_reject_outside(bool on) { reject_outside_ = on; }
+  /// The LUT's ball chroma box changed (an adapted table): scanline pre-rejection follows it.
+  void set_ball_box(const ChromaBox& box) { config_.ball_box = box; }
 
  private:
   bool Passes(const Region& r, bool& in_field) const;

@@ -42,6 +42,13 @@ for cam in omni persp; do
     "$work/seq/frames.csv" > "$d/frames.csv"
   echo "pipeline per $cam image alone: $(run bv_perf_begin bv_perf_end "$work/$cam.log" "${args/seq=$work\/seq/seq=$d}")"
 done
+# Issue 11: the built-in colour model's table (no LUT stored), without and with online colour
+# adaptation (refits every 16 confirmed pairs, the table rebuilt 2 of 64 rows per pair).
+if [ -n "$cal" ] && [ -f "$cal" ]; then
+  base="arg=seq=$work/seq,arg=cal=$work/calib.bin"
+  echo "pipeline per frame pair, built-in colour table: $(run bv_perf_begin bv_perf_end "$work/builtin.log" "$base")"
+  echo "pipeline per frame pair, built-in table + colour adaptation: $(run bv_perf_begin bv_perf_end "$work/adapt.log" "$base,arg=adapt=1")"
+fi
 if echo "$pipe" | grep -q 'intervals=0 '; then
   echo "note: the pipeline did not run (no valid calibration + LUT: BV_FW_CALIB_JSON and"
   echo "      BV_FW_LUT_BLOB); the loop figure then covers the no-calibration path only"

@@ -4,6 +4,7 @@
 //   cal=FILE       calibration blob, stored into the calibration A/B slots (optional)
 //   lut=FILE       colour LUT blob, stored into the LUT A/B slots (optional)
 //   frames=N       stop after N pairs (optional)
+//   adapt=1        online colour adaptation on from boot (the cost benchmark)
 //   period_us=N    frame period for the deadline accounting (default 33333)
 //   rx_bytes=N     test aid: the replay ends only after N bytes arrived on UART0
 //   capture_chunks=N  capture chunks queued per loop iteration at most (default 4); with
@@ -193,6 +194,7 @@ Status BoardInit(BoardServices& out) {
   uint32_t value = 0;
   if (GetU32Arg("period_us", value) && value > 0) out.config.frame_period_us = value;
   if (GetU32Arg("capture_chunks", value) && value > 0) out.config.capture_chunks_per_poll = value;
+  if (GetU32Arg("adapt", value)) out.config.color_adaptation = value != 0;
   uint32_t max_pairs = 0;
   GetU32Arg("frames", max_pairs);
 

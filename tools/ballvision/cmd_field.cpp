@@ -32,12 +32,13 @@ constexpr double kGoalHitM = 0.75;   // a goal found within this of the true mou
 struct FieldArgs {
   std::string seq, calib, lut, robots;
   int half = 0;
-  bool per_frame = false, stills = false, no_field = false;
+  bool per_frame = false, stills = false, no_field = false, adapt = false;
 };
 
 constexpr char kFieldUsage[] =
     "usage: ballvision eval-field SEQ --calib FILE [--lut FILE] [--robots CSV]\n"
     "       [--half -1|0|1] [--stills] [--no-field] [--per-frame]\n"
+    "       [--adapt]  (online colour adaptation from the built-in model, as on the device)\n"
     "  field figures against SEQ/truth.csv: pose (from an unknown start), line\n"
     "  points, obstacles (--robots: index,x,y,radius, robot frame; see\n"
     "  tools/python/scene_robots.py), ball recall and false balls per camera\n"
@@ -368,7 +369,8 @@ int CmdEvalField(int argc, char** argv) {
       .Int("--half", -1, 1, a.half)
       .Flag("--stills", a.stills)
       .Flag("--no-field", a.no_field)
-      .Flag("--per-frame", a.per_frame);
+      .Flag("--per-frame", a.per_frame)
+      .Flag("--adapt", a.adapt);
   if (const int rc = args.Parse(argc, argv); rc >= 0) return rc;
   std::string err, used;
   host::Sequence seq;
@@ -384,10 +386,21 @@ int CmdEvalField(int argc, char** argv) {
     return 1;
   }
   std::fprintf(stderr, "colour LUT: %s\n", used.c_str());
+  static ColorAdapter adapter;
+  if (a.adapt) {
+    if (used.rfind("built-in", 0) != 0) {
+      std::fprintf(stderr,
+                   "ballvision eval-field: --adapt starts from the built-in colour model (--lut "
+                   "builtin): a table file does not carry the model it was built from\n");
+      return 2;
+    }
+    adapter.Start(BallColorModel{}, &lut);
+  }
   auto pipeline = std::make_unique<Pipeline>();
   PipelineConfig config;
   config.field_features = !a.no_field;
   Status st = pipeline->Init(cal, lut, config);
+  if (a.adapt) pipeline->SetColorAdapter(&adapter);
   if (st.ok() && a.half != 0) st = pipeline->SetFieldHalf(static_cast<int8_t>(a.half));
   if (!st.ok()) {
     std::fprintf(stderr, "ballvision eval-field: pipeline: %s\n", st.message());
@@ -440,6 +453,15 @@ int CmdEvalField(int argc, char** argv) {
     return 1;
   }
   PrintFigures(fig, !a.robots.empty());
+  if (a.adapt) {
+    const ColorAdaptStats& s = adapter.stats();
+    const BallColorModel& m = adapter.model();
+    std::printf(
+        "colour adaptation        %u confirmed frames, %u refits (%u refused), model now "
+        "hue %.1f..%.1f deg, chroma >= %.2f, Y >= %d\n",
+        s.frames_observed, s.refits, s.refits_refused, m.hue_min_deg, m.hue_max_deg, m.chroma_min,
+        m.y_min);
+  }
   return 0;
 }
 
