@@ -64,7 +64,8 @@ float HueMean(float sum_cos, float sum_sin) { return std::atan2(sum_sin, sum_cos
 
 }  // namespace
 
-void BallColorStats::Clear() { *this = BallColorStats(); }
+// In place: a `*this = BallColorStats()` would build a 4 KB temporary on the stack.
+void BallColorStats::Clear() { Scale(0.0f); }
 
 void BallColorStats::Scale(float factor) {
   for (float& x : hue_) x *= factor;
@@ -138,7 +139,9 @@ Status BallColorStats::Fit(const BallColorModel& start, BallColorModel& out) con
   return Status::Ok();
 }
 
-void HueHistogram::Clear() { *this = HueHistogram(); }
+void HueHistogram::Clear() {
+  for (float& b : bins) b = 0.0f;
+}
 
 void HueHistogram::AddIfInModelIgnoringHue(const BallColorTest& test, const Yuv& p, float weight) {
   if (test.ContainsIgnoringHue(p.y, p.u, p.v)) bins[HueBin(HueDeg(p))] += weight;

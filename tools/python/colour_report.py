@@ -1,8 +1,9 @@
 #!/usr/bin/env python3
 """Ball-colour figures per scene and camera (issue #11 item 4), from the full pipeline.
 
-For every rendered sequence given (with truth.csv), runs `ballvision eval-field` twice:
+For every rendered sequence given (with truth.csv), runs `ballvision eval-field` three times:
   (a) with the built-in colour model's table, no teaching;
+  (c) the same with online colour adaptation on (`--adapt`, as the device's parameter 20);
   (b) after a one-click teach: `ballvision lut teach SEQ --click ...`, the click being the
       persp ball centre of the first frame where the ball is fully visible and at least 8 px
       across (what a user would click), taken from truth.csv.
@@ -33,8 +34,9 @@ def run(cmd):
     return p.stdout
 
 
-def figures(ballvision, seq, calib, lut):
-    out = run([ballvision, "eval-field", seq, "--calib", calib, "--lut", lut])
+def figures(ballvision, seq, calib, lut, adapt=False):
+    out = run([ballvision, "eval-field", seq, "--calib", calib, "--lut", lut] +
+              (["--adapt"] if adapt else []))
     got = {}
     for line in out.splitlines():
         m = LINE.match(line)
@@ -71,6 +73,8 @@ def main():
             name = os.path.basename(os.path.dirname(os.path.abspath(seq))) + "/" + \
                 os.path.basename(os.path.abspath(seq))
             rows.append((name, "(a) built-in", figures(a.ballvision, seq, a.calib, "builtin")))
+            rows.append((name, "(c) built-in + adaptation",
+                         figures(a.ballvision, seq, a.calib, "builtin", adapt=True)))
             click = click_from_truth(seq)
             if click is None:
                 rows.append((name, "(b) one click", None))
