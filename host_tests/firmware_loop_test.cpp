@@ -194,11 +194,11 @@ class MainLoopTest : public ::testing::Test {
     init_ = loop_->Init();
     loop_->RunUntilFinished();
   }
-  // A valid demo calibration and the rule LUT in storage: the pipeline runs (field features on).
+  // A valid demo calibration and the built-in table in storage: the pipeline runs (features on).
   void InstallDemoBlobs(uint32_t* calibration_id = nullptr, uint32_t* lut_id = nullptr,
                         bool with_lut = true) {
     static ColorLut lut;
-    cli::FillRuleLut(lut);
+    cli::FillBuiltInLut(lut);
     RigCalibration cal = cli::MakeDemoCalibration();
     cal.lut_id = lut.Id();
     if (calibration_id != nullptr) *calibration_id = cal.calibration_id;
@@ -553,9 +553,9 @@ class MainLoopCommandsTest : public MainLoopTest {
       }
     }
   }
-  // The rule LUT serialised: what the upload tests send.
-  std::span<uint8_t> RuleLutBlob() {
-    cli::FillRuleLut(lut_);
+  // The built-in table serialised: what the upload tests send.
+  std::span<uint8_t> BuiltInLutBlob() {
+    cli::FillBuiltInLut(lut_);
     const Result<size_t> n = SerializeLut(lut_, lut_blob_);
     EXPECT_TRUE(n.ok());
     return {lut_blob_, n.ok() ? *n : 0};
@@ -568,7 +568,7 @@ class MainLoopCommandsTest : public MainLoopTest {
 
 TEST_F(MainLoopCommandsTest, LutUploadIsVerifiedSavedAndActivated) {
   Start();
-  const std::span<const uint8_t> b = RuleLutBlob();
+  const std::span<const uint8_t> b = BuiltInLutBlob();
   ASSERT_FALSE(b.empty());
   Upload(protocol::UploadTarget::kLut, b, Crc32(b));
   Drain();
@@ -670,16 +670,17 @@ TEST_F(MainLoopCommandsTest, TeachRefusalsKeepTheOldTable) {
   Replies(acks, errors, statuses, code);
   EXPECT_EQ(errors, 4);
   EXPECT_EQ(code, static_cast<uint8_t>(protocol::CommandError::kBadValue));
+  const auto upload_begin = [&] {
+    uint8_t b[9];
+    ByteWriter begin(b);
+    begin.U8(static_cast<uint8_t>(protocol::UploadTarget::kLut));
+    begin.U32(1000);
+    begin.U32(0);
+    Command(protocol::MsgType::kUploadBegin, begin.written());
+  };
   // An upload begin while a teach waits for its pair: busy (the teach works in the buffer).
   teach(protocol::TeachWhere::kPerspPixel, 320, 240);
-  {
-    uint8_t ub[9];
-    ByteWriter ubw(ub);
-    ubw.U8(static_cast<uint8_t>(protocol::UploadTarget::kLut));
-    ubw.U32(1000);
-    ubw.U32(0);
-    Command(protocol::MsgType::kUploadBegin, ubw.written());
-  }
+  upload_begin();
   Drain();
   Replies(acks, errors, statuses, code);
   EXPECT_EQ(errors, 5);
@@ -691,12 +692,7 @@ TEST_F(MainLoopCommandsTest, TeachRefusalsKeepTheOldTable) {
   const uint32_t taught = loop_->status().lut_id;
   EXPECT_NE(taught, before);
   // During an upload: busy; the upload goes on.
-  uint8_t b[9];
-  ByteWriter begin(b);
-  begin.U8(static_cast<uint8_t>(protocol::UploadTarget::kLut));
-  begin.U32(1000);
-  begin.U32(0);
-  Command(protocol::MsgType::kUploadBegin, begin.written());
+  upload_begin();
   teach(protocol::TeachWhere::kPerspPixel, 320, 240);
   Drain();
   Replies(acks, errors, statuses, code);
@@ -723,8 +719,7 @@ TEST_F(MainLoopCommandsTest, AdaptationNeedsAKnownModelAndOnlyASaveMakesItPerman
   Replies(acks, errors, statuses, code);
   EXPECT_EQ(acks, 1);
   EXPECT_EQ(errors, 1);
-  EXPECT_EQ(loop_->status().lut_state,
-            static_cast<uint8_t>(protocol::BlobState::kBuiltInMissing))
+  EXPECT_EQ(loop_->status().lut_state, static_cast<uint8_t>(protocol::BlobState::kBuiltInMissing))
       << "adapting stores nothing";
   param(kParamSaveColorTable, 1.0f);  // the table in use, stored as an upload
   Drain();
@@ -735,7 +730,7 @@ TEST_F(MainLoopCommandsTest, AdaptationNeedsAKnownModelAndOnlyASaveMakesItPerman
   ASSERT_TRUE(reboot.Init().ok());
   EXPECT_EQ(reboot.status().lut_id, loop_->status().lut_id);
   // After an uploaded table (its model unknown) adaptation cannot start.
-  const std::span<uint8_t> b = RuleLutBlob();
+  const std::span<uint8_t> b = BuiltInLutBlob();
   Upload(protocol::UploadTarget::kLut, b, Crc32(b));
   param(kParamColorAdaptation, 1.0f);
   Drain();
@@ -746,7 +741,7 @@ TEST_F(MainLoopCommandsTest, AdaptationNeedsAKnownModelAndOnlyASaveMakesItPerman
 
 TEST_F(MainLoopCommandsTest, CorruptUploadIsRefusedAndNothingChanges) {
   Start();
-  const std::span<uint8_t> b = RuleLutBlob();
+  const std::span<uint8_t> b = BuiltInLutBlob();
   ASSERT_FALSE(b.empty());
   Upload(protocol::UploadTarget::kLut, b, Crc32(b) ^ 1u);  // transfer CRC wrong
   b[100] = 200;  // a class value that does not exist, with a matching transfer CRC

@@ -90,7 +90,7 @@ TEST(NoAlloc, CountersWork) {
 TEST(NoAlloc, ProcessNeverAllocatesAfterInit) {
   const RigCalibration cal = cli::MakeDemoCalibration();
   auto lut = std::make_unique<ColorLut>();
-  cli::FillRuleLut(*lut);
+  cli::FillBuiltInLut(*lut);
   auto pipeline = std::make_unique<Pipeline>();
   ASSERT_TRUE(pipeline->Init(cal, *lut, PipelineConfig{}).ok());
   const cli::DemoRenderer renderer(cal);

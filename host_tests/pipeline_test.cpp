@@ -28,7 +28,7 @@ class PipelineTest : public ::testing::Test {
  protected:
   void SetUp() override {
     cal_ = cli::MakeDemoCalibration();
-    cli::FillRuleLut(*lut_);
+    cli::FillBuiltInLut(*lut_);
     ASSERT_TRUE(pipeline_->Init(cal_, *lut_, PipelineConfig{}).ok());
     renderer_ = std::make_unique<cli::DemoRenderer>(cal_);
   }
@@ -329,7 +329,7 @@ TEST(PipelineCli, RunWritesTheDesignColumns) {
   std::string err;
   ASSERT_TRUE(cli::SaveCalibrationJson((dir / "calib.json").string(), cal, err)) << err;
   auto lut = std::make_unique<ColorLut>();
-  cli::FillRuleLut(*lut);
+  cli::FillBuiltInLut(*lut);
   std::vector<uint8_t> blob(kColorLutBlobBytes);
   ASSERT_TRUE(SerializeLut(*lut, blob).ok());
   ASSERT_TRUE(cli::WriteFileBytes((dir / "ball.lut").string(), blob, err)) << err;

@@ -339,7 +339,7 @@ int Eval(const Args& a) {
     return 2;
   }
   if (a.lut == "builtin") {
-    FillRuleLut(lut);
+    FillBuiltInLut(lut);
   } else if (!LoadLut(a.lut, lut)) {
     return 1;
   }

@@ -45,8 +45,8 @@ constexpr char kRunUsage[] =
     "usage: ballvision run SEQ --calib FILE [--out states.csv] [--predict-ms N]\n"
     "       [--lut FILE] [--annotate DIR] [--features DIR] [--stills]\n"
     "       [--bounce-factor B (0.7)]\n"
-    "  --lut      colour LUT blob; default $BV_LUT, then <calib dir>/luts/*.lut,\n"
-    "             then a built-in colour rule\n"
+    "  --lut      colour LUT blob, or 'builtin'; default $BV_LUT, then\n"
+    "             <calib dir>/luts/*.lut, then the built-in colour model's table\n"
     "  --stills   frames are unrelated stills: no tracking across frames\n"
     "  --features DIR  field features per frame: DIR/lines.csv (index,x,y) and\n"
     "             DIR/obstacles.csv (index,x,y,radius), robot frame, metres\n";
@@ -857,7 +857,7 @@ int CmdDemo(int argc, char** argv) {
   const auto t_start = std::chrono::steady_clock::now();
   const RigCalibration cal = MakeDemoCalibration();
   auto lut = std::make_unique<ColorLut>();
-  FillRuleLut(*lut);
+  FillBuiltInLut(*lut);
   auto pipeline = std::make_unique<Pipeline>();
   PipelineConfig config;
   const Status st = pipeline->Init(cal, *lut, config);

@@ -17,7 +17,7 @@
 
 namespace bv::cli {
 
-void FillRuleLut(ColorLut& lut) {
+void FillBuiltInLut(ColorLut& lut) {
   // The default model is valid by construction (host_tests check it).
   BuildLut(BallColorModel{}, lut).IgnoreError();
 }
@@ -50,12 +50,12 @@ bool LoadLutOrDefault(const std::string& path, const std::string& calib_path, Co
     }
   }
   if (file == "builtin") {
-    FillRuleLut(lut);
+    FillBuiltInLut(lut);
     used = "built-in colour model (--lut builtin)";
     return true;
   }
   if (file.empty()) {
-    FillRuleLut(lut);
+    FillBuiltInLut(lut);
     used = "built-in colour model (no --lut, no $BV_LUT, no <calib dir>/luts/*.lut)";
     return true;
   }
