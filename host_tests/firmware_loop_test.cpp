@@ -739,6 +739,32 @@ TEST_F(MainLoopCommandsTest, AdaptationNeedsAKnownModelAndOnlyASaveMakesItPerman
   EXPECT_EQ(code, static_cast<uint8_t>(protocol::CommandError::kBadValue));
 }
 
+TEST_F(MainLoopCommandsTest, TeachingAColourTheFieldHasIsRefused) {
+  // Grey, with a yellow-green "ball" said to be at the point whose colour also covers a big
+  // patch of the image that the field rule calls carpet (U and V below grey): the learnt
+  // colour would take the field.
+  std::memset(g_frame, 128, sizeof g_frame);
+  PaintDisc(160, 240, 20, 120, 118, 90);
+  PaintDisc(480, 240, 140, 120, 118, 90);
+  Start();
+  const uint32_t before = loop_->status().lut_id;
+  uint8_t p[protocol::kTeachBallBytes];
+  ByteWriter w(p);
+  w.U8(static_cast<uint8_t>(protocol::TeachWhere::kPerspPixel));
+  w.F32(160.0f);
+  w.F32(240.0f);
+  Command(protocol::MsgType::kTeachBall, w.written());
+  camera_.AddRegular(1, 33333);
+  loop_->RunUntilFinished();
+  int acks, errors, statuses;
+  uint8_t code = 0;
+  Replies(acks, errors, statuses, code);
+  EXPECT_EQ(errors, 1);
+  EXPECT_EQ(code, static_cast<uint8_t>(protocol::CommandError::kTeachRefused));
+  EXPECT_EQ(loop_->status().lut_id, before);
+  std::memset(g_frame, 128, sizeof g_frame);
+}
+
 TEST_F(MainLoopCommandsTest, CorruptUploadIsRefusedAndNothingChanges) {
   Start();
   const std::span<uint8_t> b = BuiltInLutBlob();
