@@ -239,8 +239,7 @@ protocol::CommandError MainLoop::TeachAndStore(const FrameInput& in, uint32_t& d
   TeachTarget targets[2];
   TeachTargets(calibration_, r, targets);
   const YuyvImage images[2] = {in.omni, in.persp};
-  const std::span<uint8_t> blob = upload_buffer_.first(kBlobScratchBytes);
-  const std::span<uint8_t> work = upload_buffer_.subspan(kBlobScratchBytes);
+  const std::span<uint8_t> work = upload_buffer_.subspan(kBlobScratchBytes, kBlobScratchBytes);
   static_assert(sizeof(ColorLut) + sizeof(TeachWorkspace) <= kBlobScratchBytes);
   static_assert(sizeof(ColorLut) % alignof(TeachWorkspace) == 0);
   ColorLut& table = *new (work.data()) ColorLut;
@@ -254,15 +253,13 @@ protocol::CommandError MainLoop::TeachAndStore(const FrameInput& in, uint32_t& d
                                                     : CommandError::kNoBall;
   }
   if (!BuildLut(model, table).ok()) return CommandError::kTeachRefused;
-  const Result<size_t> n = SerializeLut(table, blob);
-  if (!n.ok()) return CommandError::kStorageFailed;
   // Stored exactly as an uploaded table: A/B slots with CRC, then activated.
-  hal::BlobStore store(storage_, config_.lut_slots[0], config_.lut_slots[1], BlobKind::kColorLut,
-                       kColorLutBlobVersion);
-  if (!store.Save(blob.first(*n), work).ok()) return CommandError::kStorageFailed;
-  if (!ParseLut(blob.first(*n), lut_).ok()) return CommandError::kStorageFailed;
-  status_.lut_id = lut_.Id();
-  status_.lut_state = static_cast<uint8_t>(BlobState::kOk);
+  const CommandError stored = StoreTable(table);
+  if (stored != CommandError::kNone) return stored;
+  // `table` was overwritten by the read-back check; the blob in the first half is intact.
+  if (!ParseLut(upload_buffer_.first(kColorLutBlobBytes), lut_).ok()) {
+    return CommandError::kStorageFailed;
+  }
   lut_model_ = model;
   lut_model_known_ = true;
   const bool adapting = adapter_ != nullptr && adapter_->active();
@@ -318,7 +315,7 @@ Status MainLoop::Params::SetParam(uint16_t id, float value) {
       return loop_.SetAdaptation(value == 1.0f);
     case kParamSaveColorTable:
       if (value != 1.0f) return Status(StatusCode::kOutOfRange, "1 saves");
-      return loop_.StoreLut() == protocol::CommandError::kNone
+      return loop_.StoreTable(loop_.lut_) == protocol::CommandError::kNone
                  ? Status()
                  : Status(StatusCode::kInvalidArgument, "the table could not be stored");
     default:
@@ -341,16 +338,21 @@ Status MainLoop::SetAdaptation(bool on) {
   return Status();
 }
 
-protocol::CommandError MainLoop::StoreLut() {
+// Serialised into the upload buffer's first half (left there), saved A/B with the read-back
+// check in the second half (which overwrites a `table` placed there), reported as in use.
+protocol::CommandError MainLoop::StoreTable(const ColorLut& table) {
   if (upload_buffer_.empty()) return protocol::CommandError::kUnsupported;
   const std::span<uint8_t> blob = upload_buffer_.first(kBlobScratchBytes);
-  const std::span<uint8_t> work = upload_buffer_.subspan(kBlobScratchBytes, kBlobScratchBytes);
-  const Result<size_t> n = SerializeLut(lut_, blob);
+  const Result<size_t> n = SerializeLut(table, blob);
   if (!n.ok()) return protocol::CommandError::kStorageFailed;
+  const uint32_t id = table.Id();  // before the read-back may overwrite it
   hal::BlobStore store(storage_, config_.lut_slots[0], config_.lut_slots[1], BlobKind::kColorLut,
                        kColorLutBlobVersion);
-  if (!store.Save(blob.first(*n), work).ok()) return protocol::CommandError::kStorageFailed;
-  status_.lut_id = lut_.Id();
+  if (!store.Save(blob.first(*n), upload_buffer_.subspan(kBlobScratchBytes, kBlobScratchBytes))
+           .ok()) {
+    return protocol::CommandError::kStorageFailed;
+  }
+  status_.lut_id = id;
   status_.lut_state = static_cast<uint8_t>(BlobState::kOk);
   return protocol::CommandError::kNone;
 }

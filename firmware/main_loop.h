@@ -222,8 +222,8 @@ class MainLoop {
   /// Teaches from `in` (the pending request), stores and activates the table, replies.
   void RunTeach(const FrameInput& in);
   protocol::CommandError TeachAndStore(const FrameInput& in, uint32_t& detail);
-  /// The table in use into the A/B slots (the upload buffer's first half as the blob).
-  protocol::CommandError StoreLut();
+  /// `table` into the A/B slots as an upload would store it; its id becomes `lut_id`.
+  protocol::CommandError StoreTable(const ColorLut& table);
   Status SetAdaptation(bool on);
   struct CaptureState {
     bool active = false;

@@ -9,10 +9,6 @@ constexpr float kRadToDeg = 57.2957795f;
 constexpr float kChromaStep = 0.02f;
 constexpr float kMinFitPixels = 100.0f;
 
-float HueDeg(const Yuv& p) {
-  return std::atan2(static_cast<float>(p.v) - 128.0f, static_cast<float>(p.u) - 128.0f) * kRadToDeg;
-}
-
 int HueBin(float deg) {
   int b = static_cast<int>(std::floor(deg)) % BallColorStats::kHueBins;
   return b < 0 ? b + BallColorStats::kHueBins : b;
@@ -64,6 +60,21 @@ float HueMean(float sum_cos, float sum_sin) { return std::atan2(sum_sin, sum_cos
 
 }  // namespace
 
+float HueDeg(const Yuv& p) {
+  return std::atan2(static_cast<float>(p.v) - 128.0f, static_cast<float>(p.u) - 128.0f) * kRadToDeg;
+}
+
+float RelativeChroma(const Yuv& p) {
+  const float du = static_cast<float>(p.u) - 128.0f, dv = static_cast<float>(p.v) - 128.0f;
+  return std::sqrt(du * du + dv * dv) / (p.y > 0 ? static_cast<float>(p.y) : 1.0f);
+}
+
+float UnwrapNear(float deg, float centre) {
+  while (deg - centre > 180.0f) deg -= 360.0f;
+  while (deg - centre <= -180.0f) deg += 360.0f;
+  return deg;
+}
+
 // In place: a `*this = BallColorStats()` would build a 4 KB temporary on the stack.
 void BallColorStats::Clear() { Scale(0.0f); }
 
@@ -81,7 +92,8 @@ void BallColorStats::Scale(float factor) {
 
 void BallColorStats::Add(const Yuv& p, float weight) {
   const float du = static_cast<float>(p.u) - 128.0f, dv = static_cast<float>(p.v) - 128.0f;
-  const float c = std::sqrt(du * du + dv * dv) / (p.y > 0 ? static_cast<float>(p.y) : 1.0f);
+  const float len = std::sqrt(du * du + dv * dv);
+  const float c = len / (p.y > 0 ? static_cast<float>(p.y) : 1.0f);
   const int cb = static_cast<int>(c / kChromaStep);
   const int bin = cb < kChromaBins ? cb : kChromaBins - 1;
   n_ += weight;
@@ -90,10 +102,9 @@ void BallColorStats::Add(const Yuv& p, float weight) {
   if (p.y <= bright_y_) chroma_dark_[bin] += weight;
   if (p.y >= bright_y_end_) chroma_bright_[bin] += weight;
   if (c >= kHueMinChroma) {
-    const float h = HueDeg(p);
-    hue_[HueBin(h)] += weight;
-    sum_cos_ += weight * std::cos(h / kRadToDeg);
-    sum_sin_ += weight * std::sin(h / kRadToDeg);
+    hue_[HueBin(HueDeg(p))] += weight;
+    sum_cos_ += weight * du / len;  // cos and sin of the hue angle
+    sum_sin_ += weight * dv / len;
     n_hue_ += weight;
   }
 }
@@ -153,9 +164,7 @@ void NarrowHueWindow(const BallColorStats& ball, const HueHistogram& background,
   if (total < kMinFitPixels || Total(background.bins, BallColorStats::kHueBins) <= 0) return;
   // Percentiles unwrapped near the window's centre, so lo and hi compare with its bounds.
   const float centre = 0.5f * (m.hue_min_deg + m.hue_max_deg);
-  float mean = ball.hue_mean_deg();
-  while (mean - centre > 180.0f) mean -= 360.0f;
-  while (mean - centre <= -180.0f) mean += 360.0f;
+  const float mean = UnwrapNear(ball.hue_mean_deg(), centre);
   // Never into the central 90 % of the ball's hues, and 2 deg beyond the percentile: a window
   // fitted to the frames taught from must still hold the ball in the light of other frames.
   const float qs_lo[] = {-1, 0.005f, 0.01f, 0.02f, 0.03f, 0.05f};
@@ -206,19 +215,12 @@ constexpr int kMaxRunPx = 160;
 constexpr int kBackgroundStride = 8;
 constexpr float kBackgroundWeight = kBackgroundStride * kBackgroundStride;
 
-float RelChroma(const Yuv& p) {
-  const float du = static_cast<float>(p.u) - 128.0f, dv = static_cast<float>(p.v) - 128.0f;
-  return std::sqrt(du * du + dv * dv) / (p.y > 0 ? static_cast<float>(p.y) : 1.0f);
-}
-
 // The seed pixel's own colour, relaxed: what the ball around it looks like in sun and shade.
 struct SeedTest {
   float hue_deg;
   bool operator()(const Yuv& p) const {
-    if (p.y < 12 || RelChroma(p) < kSeedMinChroma) return false;
-    float d = HueDeg(p) - hue_deg;
-    if (d > 180.0f) d -= 360.0f;
-    if (d < -180.0f) d += 360.0f;
+    if (p.y < 12 || RelativeChroma(p) < kSeedMinChroma) return false;
+    const float d = UnwrapNear(HueDeg(p), hue_deg) - hue_deg;
     return d <= kSeedHueTolDeg && d >= -kSeedHueTolDeg;
   }
 };
@@ -234,7 +236,7 @@ Status MeasureBall(const YuyvImage& img, const TeachTarget& t, Disc& out) {
   if (!img.contains(u0, v0))
     return Status(StatusCode::kNotFound, "teach: the point is outside the image");
   const Yuv seed = img.at(u0, v0);
-  if (seed.y < 12 || RelChroma(seed) < 0.15f) {
+  if (seed.y < 12 || RelativeChroma(seed) < 0.15f) {
     return Status(StatusCode::kNotFound,
                   "teach: the pixel at the point is grey or dark, not a ball");
   }

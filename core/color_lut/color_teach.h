@@ -12,6 +12,13 @@
 
 namespace bv {
 
+/// atan2(V-128, U-128) in degrees, (-180, 180].
+float HueDeg(const Yuv& p);
+/// |(U-128, V-128)| / Y (Y 0 counts as 1).
+float RelativeChroma(const Yuv& p);
+/// deg + k * 360 within (centre - 180, centre + 180]: hue windows may cross +-180 deg (yellow).
+float UnwrapNear(float deg, float centre);
+
 /// Histograms of ball pixels. ~4 KB: the device keeps it in its upload buffer while teaching.
 class BallColorStats {
  public:

@@ -14,30 +14,19 @@
 namespace bv::lut {
 namespace {
 
-constexpr double kRadToDeg = 57.29577951308232;
+constexpr float kRadToDeg = 57.2957795f;
 constexpr float kGrowHueMarginDeg = 10.0f;  // the grow test is the start window widened by this
 constexpr float kGrowChromaMin = 0.10f;     // ... and this relative chroma floor
-constexpr int kBackgroundStride = 8;
-constexpr double kAcquireHueTolDeg = 8.0;  // background sampled every 8th pixel of every 8th row
+constexpr int kBackgroundStride = 8;        // background: every 8th pixel of every 8th row
 constexpr double kBackgroundSampleWeight = kBackgroundStride * kBackgroundStride;
-
-double HueDeg(const Yuv& p) { return std::atan2(p.v - 128.0, p.u - 128.0) * kRadToDeg; }
-// h + k * 360 within (centre - 180, centre + 180]: hue windows may cross +-180 deg (yellow).
-double UnwrapNear(double h, double centre) {
-  while (h - centre > 180.0) h -= 360.0;
-  while (h - centre <= -180.0) h += 360.0;
-  return h;
-}
-double RelChroma(const Yuv& p) {
-  return std::hypot(p.u - 128.0, p.v - 128.0) / std::max(1.0, static_cast<double>(p.y));
-}
+constexpr float kAcquireHueTolDeg = 8.0f;  // the other camera's ball: mean hue this near
 
 // The relaxed test the ball is grown with: the start model's hue window widened, low chroma floor.
 struct GrowTest {
-  double hue_lo, hue_hi;
+  float hue_lo, hue_hi;
   bool operator()(const Yuv& p) const {
-    if (p.y < 12 || RelChroma(p) < kGrowChromaMin) return false;
-    const double h = UnwrapNear(HueDeg(p), 0.5 * (hue_lo + hue_hi));
+    if (p.y < 12 || RelativeChroma(p) < kGrowChromaMin) return false;
+    const float h = UnwrapNear(HueDeg(p), 0.5f * (hue_lo + hue_hi));
     return h >= hue_lo && h <= hue_hi;
   }
 };
@@ -96,8 +85,6 @@ struct Pass {
   Camera cam;
   const ColorLut* lut;
   BallFinder* finder;
-  GrowTest grow;
-  int every;
 };
 
 struct Found {
@@ -170,44 +157,34 @@ void NarrowAgainstBackground(const std::vector<Yuv>& ball, const std::vector<Yuv
 
 namespace {
 
-double MeanHueOf(const std::vector<Yuv>& px) {
-  double sc = 0, ss = 0;
-  for (const Yuv& p : px) {
-    if (RelChroma(p) < 0.25) continue;
-    sc += std::cos(HueDeg(p) / kRadToDeg);
-    ss += std::sin(HueDeg(p) / kRadToDeg);
-  }
-  return std::atan2(ss, sc) * kRadToDeg;
-}
-
 struct Collected {
   std::vector<Yuv> ball, background;
   int frames[2] = {0, 0};
   int64_t moved_px = 0;
 };
 
-// One camera: track the ball with `model`'s table (from the click when it names this camera),
-// grow it in every frame it was found in, sample the rest of those frames as background.
 // Circular mean hue of the chromatic pixels inside 0.6 of a candidate's radius.
-double MeanHue(const YuyvImage& img, const BallDetection& d) {
+float MeanHue(const YuyvImage& img, const BallDetection& d) {
   double sc = 0, ss = 0;
   const float r = 0.6f * d.radius_px;
   for (int v = static_cast<int>(d.v_px - r); v <= static_cast<int>(d.v_px + r); ++v) {
     for (int u = static_cast<int>(d.u_px - r); u <= static_cast<int>(d.u_px + r); ++u) {
       if (!img.contains(u, v) || std::hypot(u - d.u_px, v - d.v_px) > r) continue;
       const Yuv p = img.at(u, v);
-      if (RelChroma(p) < 0.25) continue;
+      if (RelativeChroma(p) < BallColorStats::kHueMinChroma) continue;
       const double h = HueDeg(p) / kRadToDeg;
       sc += std::cos(h);
       ss += std::sin(h);
     }
   }
-  return std::atan2(ss, sc) * kRadToDeg;
+  return static_cast<float>(std::atan2(ss, sc)) * kRadToDeg;
 }
 
+// One camera: track the ball with `model`'s table (from the click when it names this camera),
+// grow it in every frame it was found in, sample the rest of those frames as background.
 bool CollectCamera(const host::Sequence& seq, const FinderSetup& setup, const TeachOptions& opt,
-                   const BallColorModel& model, const double* target_hue, Camera cam,
-                   Collected& out, std::string& error) {
+                   const BallColorModel& model, const float* target_hue, Camera cam, Collected& out,
+                   std::string& error) {
   static ColorLut lut;
   if (const Status st = BuildLut(model, lut); !st.ok()) {
     error = st.message();
@@ -228,7 +205,7 @@ bool CollectCamera(const host::Sequence& seq, const FinderSetup& setup, const Te
     if (opt.every <= 1 || seq.entries[k].index % opt.every == 0) order.push_back(k);
   }
   const GrowTest grow{model.hue_min_deg - kGrowHueMarginDeg, model.hue_max_deg + kGrowHueMarginDeg};
-  const Pass pass{&seq, cam, &lut, finder.get(), grow, opt.every};
+  const Pass pass{&seq, cam, &lut, finder.get()};
   std::vector<Found> found;
   if (opt.click && opt.click_camera == cam) {
     const auto at = std::find_if(order.begin(), order.end(),
@@ -277,10 +254,10 @@ bool CollectCamera(const host::Sequence& seq, const FinderSetup& setup, const Te
       }
       BallDetection cand[8];
       const size_t n = finder->Candidates(cand);
-      double best = kAcquireHueTolDeg;
+      float best = kAcquireHueTolDeg;
       const BallDetection* pick = nullptr;
       for (size_t i = 0; i < n; ++i) {
-        const double d =
+        const float d =
             std::fabs(UnwrapNear(MeanHue(img.view(), cand[i]), *target_hue) - *target_hue);
         if (d < best) {
           best = d;
@@ -333,6 +310,25 @@ bool CollectCamera(const host::Sequence& seq, const FinderSetup& setup, const Te
   return true;
 }
 
+// The model fitted to `ball` (its statistics gathered once) and narrowed against `background`;
+// `hue_mean` gets the ball pixels' circular mean hue.
+bool FitAndNarrow(const std::vector<Yuv>& ball, const std::vector<Yuv>& background,
+                  const BallColorModel& start, BallColorModel& model, float& hue_mean,
+                  std::string& error) {
+  auto stats = std::make_unique<BallColorStats>();
+  for (const Yuv& p : ball) stats->Add(p);
+  if (const Status st = stats->Fit(start, model); !st.ok()) {
+    error = st.message();
+    return false;
+  }
+  hue_mean = stats->hue_mean_deg();
+  auto bg = std::make_unique<HueHistogram>();
+  const BallColorTest test(model);
+  for (const Yuv& p : background) bg->AddIfInModelIgnoringHue(test, p);
+  NarrowHueWindow(*stats, *bg, static_cast<float>(kBackgroundSampleWeight), model);
+  return true;
+}
+
 // The fitted model against the background: refused when it takes the field's or lines' pixels.
 bool CheckAgainstField(size_t ball_pixels, const std::vector<Yuv>& background, TeachReport& out,
                        std::string& error) {
@@ -371,7 +367,7 @@ bool TeachSequence(const std::string& dir, const FinderSetup& setup, const Teach
   // red and orange things around it that the broad starting model does, and learns from all.
   BallColorModel model = opt.start;
   Collected got;
-  double learnt_hue = 0;
+  float learnt_hue = 0;
   for (int pass = 0; pass < 2; ++pass) {
     got = Collected{};
     for (int c = 0; c < 2; ++c) {
@@ -391,13 +387,9 @@ bool TeachSequence(const std::string& dir, const FinderSetup& setup, const Teach
           (opt.click ? std::string() : std::string(" (give a click: --click INDEX:CAMERA:U,V)"));
       return false;
     }
-    learnt_hue = MeanHueOf(got.ball);
-    std::string why;
-    if (!FitBallColorModel(got.ball, opt.start, model, why)) {
-      error = why;
+    if (!FitAndNarrow(got.ball, got.background, opt.start, model, learnt_hue, error)) {
       return false;
     }
-    NarrowAgainstBackground(got.ball, got.background, kBackgroundSampleWeight, model);
   }
   out.model = model;
   out.frames[0] = got.frames[0];
@@ -433,12 +425,8 @@ bool TeachBoxes(const std::vector<BoxImage>& images, const BallColorModel& start
     }
     out.frames[1] += bi.balls.empty() ? 0 : 1;
   }
-  std::string why;
-  if (!FitBallColorModel(ball, start, out.model, why)) {
-    error = why;
-    return false;
-  }
-  NarrowAgainstBackground(ball, background, kBackgroundSampleWeight, out.model);
+  float hue_mean = 0;
+  if (!FitAndNarrow(ball, background, start, out.model, hue_mean, error)) return false;
   return CheckAgainstField(ball.size(), background, out, error);
 }
 
