@@ -266,6 +266,7 @@ Status Pipeline::Init(const RigCalibration& calibration, const ColorLut& lut,
       features_ready_ = true;
     }
     BallFinderConfig finder = config_.finder;
+    finder.fit_circles = false;
     omni_field_.p = this;
     if (finder.field == nullptr) finder.field = &omni_field_;
     BV_TRY(omni_finder_.Init(omni_scan_, finder));
@@ -274,6 +275,7 @@ Status Pipeline::Init(const RigCalibration& calibration, const ColorLut& lut,
     BV_TRY(persp_scan_.BuildPersp(ReferencePerspScanConfig(), calibration.persp.width_px,
                                   calibration.persp.height_px));
     BallFinderConfig finder = config_.finder;
+    finder.fit_circles = config_.persp_circles;
     persp_field_.p = this;
     if (finder.field == nullptr) finder.field = &persp_field_;
     BV_TRY(persp_finder_.Init(persp_scan_, finder));
@@ -329,6 +331,7 @@ BallDetection Pipeline::Detect(BallFinder& finder, const YuyvImage& img,
   p.u_px = pred.u_px;
   p.v_px = pred.v_px;
   p.sigma_px = std::max(2.f * pred.radius_px, 6.f);
+  p.radius_px = pred.radius_px;
   const Status st = finder.Find(img, *lut_, pred.valid ? &p : nullptr, det, fs);
   stats_.pixels_read += fs.pixels_read;
   stats_.regions_traced += fs.regions;
@@ -480,10 +483,18 @@ Status Pipeline::Process(const FrameInput& in, BallState& out) {
     persp_ray.camera = 1;
     // A region smaller than the predicted ball is the visible part of a partly hidden ball: its
     // centroid is off towards that part by up to the missing radius.
-    const float hidden_px =
-        pred_persp_.valid ? std::max(0.f, pred_persp_.radius_px - out.persp.radius_px) : 0.f;
+    // A fitted circle has the whole radius; its centre is as good as the arc it spans.
+    const bool circle = out.persp.arc_sectors > 0;
+    const float hidden_px = pred_persp_.valid && !circle
+                                ? std::max(0.f, pred_persp_.radius_px - out.persp.radius_px)
+                                : 0.f;
+    const float arc_px =
+        circle ? 0.5f + 0.25f * out.persp.radius_px *
+                            static_cast<float>(kCircleSectors - out.persp.arc_sectors) /
+                            static_cast<float>(kCircleSectors)
+               : 0.f;
     const float s = (config_.persp_sigma_px + config_.persp_sigma_per_radius * out.persp.radius_px +
-                     (persp_cut ? 0.5f * out.persp.radius_px : 0.f) + hidden_px) /
+                     (persp_cut ? 0.5f * out.persp.radius_px : 0.f) + hidden_px + arc_px) /
                     std::max(cal.persp.fx, 1.0f);
     persp_ray.sigma_h_rad = persp_ray.sigma_v_rad = s;
     if (out.persp.radius_px > 0.5f && !persp_cut) {

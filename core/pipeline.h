@@ -49,6 +49,9 @@ struct PipelineConfig {
   float persp_sigma_px = 0.3f, persp_sigma_per_radius = 0.01f;
   float size_range_rel = 0.05f;
   BallFinderConfig finder;  // ball choice and attention (core/detect), both cameras
+  // Circles fitted to persp outlines that are not clean discs (a ball merged with a red box or
+  // cone behind it, partly hidden by a robot). Off for the omni image: the mirror bends the ball.
+  bool persp_circles = true;
   // The field itself is the calibration's (RigCalibration::field): the in-field rule and the
   // self-localisation from the omni camera's line points (core/field) use it.
   bool field_features = true;  // line points, obstacles, localisation

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <functional>
 #include <memory>
+#include <tuple>
 #include <vector>
 
 namespace bv {
@@ -254,6 +255,140 @@ TEST(ContourTest, WholeFrameInClassTracesTheBorder) {
   EXPECT_FLOAT_EQ(r.area_px, 640.0f * 480.0f);
   EXPECT_NEAR(r.cu_px, 319.5f, 1e-3);
   EXPECT_EQ(r.chain_length, 2u * 639 + 2 * 479);
+}
+
+}  // namespace
+}  // namespace bv
+
+namespace bv {
+namespace {
+
+// The outline's circle: a disc merged with what lies behind it, partly hidden, or alone.
+struct CircleCase {
+  Frame f;
+  std::unique_ptr<Set32> rs = std::make_unique<Set32>();
+  void Disc(float cu, float cv, float r) {
+    f.Draw([&](int u, int v) { return std::hypot(u - cu, v - cv) <= r; });
+  }
+  const Region& Trace(int u, int v) {
+    EXPECT_EQ(rs->TraceSeed(f.view(), Lut(), ColorClass::kBall, u, v), SeedOutcome::kNewRegion);
+    return rs->regions().back();
+  }
+};
+
+TEST(ContourCircleTest, AWholeDiscIsItsOwnCircle) {
+  for (float radius : {4.0f, 9.5f, 25.0f}) {
+    CircleCase c;
+    c.Disc(300.4f, 200.7f, radius);
+    c.Trace(300, 201);
+    CircleFit fit;
+    ASSERT_TRUE(c.rs->FitCircle(0, CircleSearch{}, fit)) << radius;
+    EXPECT_EQ(fit.sectors, kCircleSectors) << radius;
+    EXPECT_NEAR(fit.cu_px, 300.4f, 0.25f) << radius;
+    EXPECT_NEAR(fit.cv_px, 200.7f, 0.25f) << radius;
+    EXPECT_NEAR(fit.radius_px, radius, 0.5f) << radius;
+    EXPECT_GT(fit.on_circle, 0.9f) << radius;
+  }
+}
+
+// A ball in front of a box of its colour: one region whose centroid lies between the two; the
+// circle is the ball's.
+TEST(ContourCircleTest, ABallMergedWithABoxBehindItKeepsItsCircle) {
+  CircleCase c;
+  c.Disc(200.3f, 150.6f, 12.0f);
+  c.f.Draw([](int u, int v) { return u >= 205 && u < 245 && v >= 120 && v < 148; });
+  const Region& r = c.Trace(200, 151);
+  ASSERT_GT(std::hypot(r.cu_px - 200.3f, r.cv_px - 150.6f), 8.0f);  // the centroid is not the ball
+  CircleFit fit;
+  ASSERT_TRUE(c.rs->FitCircle(0, CircleSearch{}, fit));
+  EXPECT_GE(fit.sectors, 8);
+  EXPECT_LT(fit.sectors, kCircleSectors);
+  EXPECT_NEAR(fit.cu_px, 200.3f, 0.4f);
+  EXPECT_NEAR(fit.cv_px, 150.6f, 0.4f);
+  EXPECT_NEAR(fit.radius_px, 12.0f, 0.6f);
+  c.rs->SetCircle(0, fit);
+  const Region& d = c.rs->regions()[0];
+  EXPECT_EQ(d.arc_sectors, fit.sectors);
+  EXPECT_FLOAT_EQ(d.cu_px, fit.cu_px);
+  EXPECT_NEAR(d.area_px, 3.14159f * 144.0f, 20.0f);
+}
+
+// Half hidden by a robot (a straight edge through it) and touching a cone above: with the radius
+// known, the arc that is left (~140 deg) still gives the centre, which the region's centroid
+// misses by a third of the radius.
+TEST(ContourCircleTest, AHalfHiddenBallWithAConeOnTopGivesItsCentreWhenTheRadiusIsKnown) {
+  CircleCase c;
+  const float cu = 320.2f, cv = 240.4f, rad = 14.0f;
+  c.f.Draw([&](int u, int v) {
+    const bool ball = std::hypot(u - cu, v - cv) <= rad && u < 326;  // the robot from u = 326
+    const bool cone = v >= 200 && v <= 230 && std::fabs(u - 316.0f) <= (v - 200) * 0.5f;
+    return ball || cone;
+  });
+  const Region& r = c.Trace(315, 242);
+  ASSERT_GT(std::hypot(r.cu_px - cu, r.cv_px - cv), 4.0f);
+  CircleSearch s;
+  s.expected_radius_px = rad;
+  s.r_min_px = 0.8f * rad;
+  s.r_max_px = 1.25f * rad + 1;
+  s.min_sectors = 5;
+  s.cu_px = cu + 3;  // a prediction a few px off
+  s.cv_px = cv - 2;
+  s.max_centre_px = rad;
+  CircleFit fit;
+  ASSERT_TRUE(c.rs->FitCircle(0, s, fit));
+  EXPECT_NEAR(fit.cu_px, cu, 0.6f);
+  EXPECT_NEAR(fit.cv_px, cv, 0.6f);
+  EXPECT_NEAR(fit.radius_px, rad, 0.8f);
+}
+
+// Two balls touching: the centre constraint picks the one predicted.
+TEST(ContourCircleTest, TwoTouchingBallsThePredictedOneIsFitted) {
+  CircleCase c;
+  c.Disc(200.0f, 200.0f, 10.0f);
+  c.Disc(217.0f, 196.0f, 9.0f);
+  c.Trace(200, 200);
+  for (const auto& [u, v, r] : {std::tuple{200.0f, 200.0f, 10.0f}, {217.0f, 196.0f, 9.0f}}) {
+    CircleSearch s;
+    s.expected_radius_px = r;
+    s.r_min_px = 0.8f * r;
+    s.r_max_px = 1.25f * r + 1;
+    s.min_sectors = 5;
+    s.cu_px = u + 1.5f;
+    s.cv_px = v - 1.0f;
+    s.max_centre_px = r;
+    CircleFit fit;
+    ASSERT_TRUE(c.rs->FitCircle(0, s, fit)) << u;
+    EXPECT_NEAR(fit.cu_px, u, 0.6f) << u;
+    EXPECT_NEAR(fit.cv_px, v, 0.6f) << u;
+    EXPECT_NEAR(fit.radius_px, r, 0.8f) << u;
+  }
+}
+
+// Not circles: a square (its outline meets its inscribed circle in four short arcs), a 3:1 bar, a
+// thin line; nor a circle outside the search's radius range or away from its centre.
+TEST(ContourCircleTest, SquaresBarsLinesAndCirclesOutsideTheSearchAreRefused) {
+  CircleCase c;
+  c.f.Draw([](int u, int v) { return u >= 100 && u < 136 && v >= 100 && v < 136; });
+  c.f.Draw([](int u, int v) { return u >= 200 && u < 260 && v >= 100 && v < 120; });
+  c.f.Draw([](int u, int v) { return u >= 300 && u < 360 && v == 100; });
+  c.Disc(450.0f, 300.0f, 15.0f);
+  c.Trace(110, 110);
+  c.Trace(210, 110);
+  c.Trace(310, 100);
+  c.Trace(450, 300);
+  CircleFit fit;
+  for (size_t i = 0; i < 3; ++i) EXPECT_FALSE(c.rs->FitCircle(i, CircleSearch{}, fit)) << i;
+  EXPECT_LT(fit.sectors, 8);
+  ASSERT_TRUE(c.rs->FitCircle(3, CircleSearch{}, fit));
+  CircleSearch small;
+  small.r_max_px = 10;
+  EXPECT_FALSE(c.rs->FitCircle(3, small, fit));
+  CircleSearch elsewhere;
+  elsewhere.cu_px = 480;
+  elsewhere.cv_px = 300;
+  elsewhere.max_centre_px = 15;
+  EXPECT_FALSE(c.rs->FitCircle(3, elsewhere, fit));
+  EXPECT_FALSE(c.rs->FitCircle(99, CircleSearch{}, fit));  // no such region
 }
 
 }  // namespace

@@ -282,3 +282,65 @@ TEST(DetectTest, PerspBallCutByTheImageBorderGivesTheVisiblePart) {
 
 }  // namespace
 }  // namespace bv
+
+namespace bv {
+namespace {
+
+// A persp ball in front of a box of its colour: one region, not round, whose centroid is off the
+// ball. With circles on, the finder reports the ball's own centre and radius.
+TEST(DetectTest, PerspBallMergedWithABoxBehindItIsFoundByItsCircle) {
+  auto scan = std::make_unique<ScanlineTable<kPerspScanPixels>>();
+  ASSERT_TRUE(scan->BuildPersp(ReferencePerspScanConfig(), kFrameWidth, kFrameHeight).ok());
+  Frame f;
+  const float cu = 300.4f, cv = 260.3f, rad = 13.0f;
+  f.Disc(cu, cv, rad);
+  for (int v = 215; v < 256; ++v)
+    for (int u = 306; u < 372; ++u) f.Set(u, v, kBallY);  // the box, up and right of the ball
+  for (bool circles : {false, true}) {
+    BallFinderConfig cfg;
+    cfg.fit_circles = circles;
+    auto finder = std::make_unique<BallFinder>();
+    ASSERT_TRUE(finder->Init(*scan, cfg).ok());
+    for (bool predicted : {false, true}) {
+      Prediction p;
+      p.u_px = cu + 2;
+      p.v_px = cv + 1;
+      p.sigma_px = 2 * rad;
+      p.radius_px = rad;
+      BallDetection d;
+      FrontEndStats s;
+      ASSERT_TRUE(finder->Find(f.view(), Lut(), predicted ? &p : nullptr, d, s).ok());
+      if (!circles) {
+        // The merged region: not round enough, or a centroid far from the ball.
+        EXPECT_TRUE(!d.found || std::hypot(d.u_px - cu, d.v_px - cv) > 5.0f) << predicted;
+        EXPECT_EQ(d.arc_sectors, 0);
+        continue;
+      }
+      ASSERT_TRUE(d.found) << predicted;
+      EXPECT_GE(d.arc_sectors, 8) << predicted;
+      EXPECT_NEAR(d.u_px, cu, 0.5f) << predicted;
+      EXPECT_NEAR(d.v_px, cv, 0.5f) << predicted;
+      EXPECT_NEAR(d.radius_px, rad, 0.7f) << predicted;
+      BallDetection c[4];
+      ASSERT_EQ(finder->Candidates(c), 1u);
+      EXPECT_EQ(c[0].arc_sectors, d.arc_sectors);
+    }
+  }
+  // A clean disc keeps its centroid (it averages every pixel).
+  Frame g;
+  g.Disc(cu, cv, rad);
+  BallFinderConfig cfg;
+  cfg.fit_circles = true;
+  auto finder = std::make_unique<BallFinder>();
+  ASSERT_TRUE(finder->Init(*scan, cfg).ok());
+  BallDetection d;
+  FrontEndStats s;
+  ASSERT_TRUE(finder->Find(g.view(), Lut(), nullptr, d, s).ok());
+  ASSERT_TRUE(d.found);
+  EXPECT_EQ(d.arc_sectors, 0);
+  cfg.min_arc_sectors = 17;
+  EXPECT_FALSE(finder->Init(*scan, cfg).ok());
+}
+
+}  // namespace
+}  // namespace bv

@@ -13,6 +13,9 @@ struct BallDetection {
   float radius_px = 0;   // equivalent-circle radius sqrt(area / pi)
   float roundness = 0;   // 4*pi*area / hull perimeter^2 (1 = disc), core/contour
   float confidence = 0;  // 0..1
+  // 0: u, v and radius are the region's; else a circle fitted to its outline, on this many of 16
+  // sectors (core/contour: a ball merged with something behind it, or partly hidden)
+  uint8_t arc_sectors = 0;
 };
 
 enum class BallMode : uint8_t { kNone = 0, kRolling = 1, kFlying = 2, kBouncing = 3 };
@@ -34,7 +37,7 @@ enum BallFlags : uint16_t {
   kFlagBadTimestamp = 1u << 10,       // frame time not after the previous one; measurement ignored
   kFlagHasBounce = 1u << 11,          // t_bounce_us / bounce_x_m / bounce_y_m valid
   kFlagHasPrediction = 1u << 12,      // px/py/pz valid
-  kFlagUnobservable = 1u << 13,       // one camera and too little motion: range along the ray unknown
+  kFlagUnobservable = 1u << 13,  // one camera and too little motion: range along the ray unknown
 };
 
 struct BallState {

@@ -199,4 +199,243 @@ SeedOutcome RegionSetBase::TraceSeed(const YuyvImage& img, const ColorLut& lut, 
   return SeedOutcome::kTooManyHoles;
 }
 
+namespace {
+constexpr int kCircleSamples = 48;
+
+// Circle through three points; false when they are (nearly) collinear.
+bool Circumcircle(float ax, float ay, float bx, float by, float cx, float cy, float& ox, float& oy,
+                  float& r2) {
+  bx -= ax;
+  by -= ay;
+  cx -= ax;
+  cy -= ay;
+  const float d = 2.0f * (bx * cy - by * cx);
+  if (std::fabs(d) < 1.0f) return false;
+  const float b2 = bx * bx + by * by, c2 = cx * cx + cy * cy;
+  const float ux = (cy * b2 - by * c2) / d, uy = (bx * c2 - cx * b2) / d;
+  ox = ax + ux;
+  oy = ay + uy;
+  r2 = ux * ux + uy * uy;
+  return true;
+}
+
+// Sector 0..15 of the direction (dx, dy) by its diamond angle (monotonic in the angle, no trig).
+int Sector(float dx, float dy) {
+  const float s = std::fabs(dx) + std::fabs(dy);
+  if (!(s > 0.0f)) return 0;
+  const float a = dy >= 0.0f ? (dx >= 0.0f ? dy / s : 1.0f - dx / s)
+                             : (dx < 0.0f ? 2.0f - dy / s : 3.0f + dx / s);
+  return std::min(kCircleSectors - 1, static_cast<int>(a * 4.0f));
+}
+
+// Longest run of set bits in a 16-bit circular mask: an arc is one run; the outline of a square
+// meets its inscribed circle in four short ones.
+int LongestRun(uint32_t mask) {
+  if (mask == 0xFFFFu) return kCircleSectors;
+  const uint32_t twice = mask | (mask << kCircleSectors);
+  int best = 0, run = 0;
+  for (int k = 0; k < 2 * kCircleSectors; ++k) {
+    run = (twice >> k) & 1u ? run + 1 : 0;
+    best = std::max(best, run);
+  }
+  return best;
+}
+
+// Boundary pixel centres lie within about 0.7 px of a digital disc's circle; blur and partial
+// classification add a little with the size.
+float CircleTolerance(float r) { return 0.9f + 0.06f * r; }
+
+// The outline's points (relative to the start pixel) near the circle (ox, oy, r): Kasa's
+// algebraic fit over them. Coordinates relative to the old centre keep the sums well scaled.
+bool RefineCircle(const uint8_t* codes, uint32_t len, float& ox, float& oy, float& r) {
+  const float tol = CircleTolerance(r);
+  const float lo2 = std::max(0.0f, r - tol) * std::max(0.0f, r - tol), hi2 = (r + tol) * (r + tol);
+  float sxx = 0, sxy = 0, syy = 0, sx = 0, sy = 0, sxz = 0, syz = 0, sz = 0, n = 0;
+  int x = 0, y = 0;
+  for (uint32_t i = 0; i < len; ++i) {
+    const float px = static_cast<float>(x) - ox, py = static_cast<float>(y) - oy;
+    const float z = px * px + py * py;
+    if (z >= lo2 && z <= hi2) {
+      sxx += px * px;
+      sxy += px * py;
+      syy += py * py;
+      sx += px;
+      sy += py;
+      sxz += px * z;
+      syz += py * z;
+      sz += z;
+      n += 1.0f;
+    }
+    x += kChainDu[codes[i]];
+    y += kChainDv[codes[i]];
+  }
+  if (n < 6.0f) return false;
+  // [sxx sxy sx; sxy syy sy; sx sy n] (D, E, F) = -(sxz, syz, sz), by Cramer's rule.
+  const double a11 = sxx, a12 = sxy, a13 = sx, a22 = syy, a23 = sy, a33 = n;
+  const double b1 = -sxz, b2 = -syz, b3 = -sz;
+  const double det =
+      a11 * (a22 * a33 - a23 * a23) - a12 * (a12 * a33 - a23 * a13) + a13 * (a12 * a23 - a22 * a13);
+  if (!(std::fabs(det) > 1e-9)) return false;
+  const double d =
+      (b1 * (a22 * a33 - a23 * a23) - a12 * (b2 * a33 - a23 * b3) + a13 * (b2 * a23 - a22 * b3)) /
+      det;
+  const double e =
+      (a11 * (b2 * a33 - a23 * b3) - b1 * (a12 * a33 - a23 * a13) + a13 * (a12 * b3 - b2 * a13)) /
+      det;
+  const double f =
+      (a11 * (a22 * b3 - b2 * a23) - a12 * (a12 * b3 - b2 * a13) + b1 * (a12 * a23 - a22 * a13)) /
+      det;
+  const double r2 = 0.25 * (d * d + e * e) - f;
+  if (!(r2 > 0.0)) return false;
+  ox += static_cast<float>(-0.5 * d);
+  oy += static_cast<float>(-0.5 * e);
+  r = static_cast<float>(std::sqrt(r2));
+  return std::isfinite(ox) && std::isfinite(oy) && std::isfinite(r);
+}
+}  // namespace
+
+bool RegionSetBase::FitCircle(size_t i, const CircleSearch& search, CircleFit& out) const {
+  out = CircleFit{};
+  if (i >= size_) return false;
+  const Region& reg = regions_[i];
+  const uint32_t len = reg.chain_length;
+  if (reg.hole || len < 12) return false;
+  const uint8_t* codes = chain_ + reg.chain_offset;
+  // Evenly spaced outline samples, relative to the start pixel.
+  const int n = static_cast<int>(std::min<uint32_t>(len, kCircleSamples));
+  int16_t sx[kCircleSamples], sy[kCircleSamples];
+  {
+    int x = 0, y = 0, k = 0;
+    for (uint32_t j = 0; j < len && k < n; ++j) {
+      if (static_cast<uint64_t>(j) * static_cast<uint32_t>(n) >= static_cast<uint64_t>(k) * len) {
+        sx[k] = static_cast<int16_t>(x);
+        sy[k] = static_cast<int16_t>(y);
+        ++k;
+      }
+      x += kChainDu[codes[j]];
+      y += kChainDv[codes[j]];
+    }
+  }
+  // Boundary pixel centres lie half a pixel inside the ball's edge. No circle is wider than the
+  // region is long (a straight edge is an arc of a huge circle).
+  const float c_min = search.r_min_px - 0.5f;
+  const float c_max =
+      std::min(search.r_max_px - 0.5f,
+               static_cast<float>(std::max(reg.u_max - reg.u_min, reg.v_max - reg.v_min)));
+  // The centre constraint, relative to the start pixel.
+  const bool near = search.max_centre_px > 0.0f;
+  const float near_u = search.cu_px - static_cast<float>(reg.start_u);
+  const float near_v = search.cv_px - static_cast<float>(reg.start_v);
+  const float near2 = search.max_centre_px * search.max_centre_px;
+  const auto too_far = [&](float ox, float oy) {
+    return near && (ox - near_u) * (ox - near_u) + (oy - near_v) * (oy - near_v) > near2;
+  };
+  // A sample on an allowed circle lies within max_centre + r_max of the predicted centre: the
+  // rest of a long merged outline starts no hypothesis.
+  const float reach = search.max_centre_px + c_max + CircleTolerance(c_max);
+  const auto out_of_reach = [&](int k) {
+    const float du = static_cast<float>(sx[k]) - near_u, dv = static_cast<float>(sy[k]) - near_v;
+    return near && du * du + dv * dv > reach * reach;
+  };
+  // Circles through three samples, scored by the samples on them. Their spacing: about 70 deg of
+  // the expected circle (every start), or a sixth and a third of the outline (16 starts; points a
+  // sixth apart still lie on a ball that is a third of a merged outline).
+  int spans[2], steps[2];
+  if (search.expected_radius_px > 0.0f) {
+    const float codes_per_sample = static_cast<float>(len) / static_cast<float>(n);
+    spans[0] =
+        std::clamp(static_cast<int>(0.6f * search.expected_radius_px / codes_per_sample + 0.5f), 1,
+                   std::max(1, n / 6));
+    spans[1] = std::min(2 * spans[0], std::max(1, n / 3));
+    steps[0] = 1;
+    steps[1] = 2;
+  } else {
+    spans[0] = std::max(2, n / 12);
+    spans[1] = std::max(3, n / 6);
+    steps[0] = steps[1] = std::max(1, n / 16);
+  }
+  int best = 0;
+  float bx = 0, by = 0, br = 0;
+  for (int h = 0; h < 2; ++h) {
+    const int span = spans[h];
+    for (int j = 0; j < n; j += steps[h]) {
+      const int b = (j + span) % n, c = (j + 2 * span) % n;
+      if (out_of_reach(j) || out_of_reach(c)) continue;
+      float ox, oy, r2;
+      if (!Circumcircle(sx[j], sy[j], sx[b], sy[b], sx[c], sy[c], ox, oy, r2)) continue;
+      const float r = std::sqrt(r2);
+      if (r < c_min || r > c_max || too_far(ox, oy)) continue;
+      const float tol = CircleTolerance(r);
+      const float lo2 = std::max(0.0f, r - tol) * std::max(0.0f, r - tol),
+                  hi2 = (r + tol) * (r + tol);
+      // Score: the longest run of consecutive samples on the circle (round the closed outline). An
+      // arc is one run; a large circle through scattered outline points collects short ones.
+      int run = 0, lead = -1, count = 0;
+      for (int k = 0; k < n; ++k) {
+        const float dx = static_cast<float>(sx[k]) - ox, dy = static_cast<float>(sy[k]) - oy;
+        const float z = dx * dx + dy * dy;
+        if (z >= lo2 && z <= hi2) {
+          count = std::max(count, ++run);
+        } else {
+          if (lead < 0) lead = run;
+          run = 0;
+        }
+      }
+      if (lead < 0) {
+        count = n;  // every sample on it
+      } else {
+        count = std::max(count, lead + run);
+      }
+      if (count > best) {
+        best = count;
+        bx = ox;
+        by = oy;
+        br = r;
+      }
+    }
+  }
+  // The best run must be most of the samples an arc of min_sectors would hold (a chain step is
+  // ~1.1 px); otherwise no refinement is spent on it.
+  const float arc_samples = 6.2832f * br * static_cast<float>(search.min_sectors) /
+                            static_cast<float>(kCircleSectors) * static_cast<float>(n) /
+                            (1.1f * static_cast<float>(len));
+  if (best < 4 || static_cast<float>(best) < 0.6f * arc_samples) return false;
+  for (int it = 0; it < 2; ++it) {
+    if (!RefineCircle(codes, len, bx, by, br)) return false;
+  }
+  if (br < c_min || br > c_max || too_far(bx, by)) return false;
+  // Support: the sectors around the centre that hold outline points on the circle.
+  const float tol = CircleTolerance(br);
+  const float lo2 = std::max(0.0f, br - tol) * std::max(0.0f, br - tol),
+              hi2 = (br + tol) * (br + tol);
+  uint32_t mask = 0, on = 0;
+  int x = 0, y = 0;
+  for (uint32_t j = 0; j < len; ++j) {
+    const float dx = static_cast<float>(x) - bx, dy = static_cast<float>(y) - by;
+    const float z = dx * dx + dy * dy;
+    if (z >= lo2 && z <= hi2) {
+      mask |= 1u << Sector(dx, dy);
+      ++on;
+    }
+    x += kChainDu[codes[j]];
+    y += kChainDv[codes[j]];
+  }
+  out.cu_px = static_cast<float>(reg.start_u) + bx;
+  out.cv_px = static_cast<float>(reg.start_v) + by;
+  out.radius_px = br + 0.5f;
+  out.sectors = LongestRun(mask);
+  out.on_circle = static_cast<float>(on) / static_cast<float>(len);
+  // A short arc is no evidence of a circle: any ragged speck curves like one over ten pixels.
+  return out.sectors >= search.min_sectors && on >= kMinArcPoints;
+}
+
+void RegionSetBase::SetCircle(size_t i, const CircleFit& fit) {
+  if (i >= size_) return;
+  Region& r = regions_[i];
+  r.cu_px = fit.cu_px;
+  r.cv_px = fit.cv_px;
+  r.area_px = 3.14159265f * fit.radius_px * fit.radius_px;
+  r.arc_sectors = static_cast<uint8_t>(fit.sectors);
+}
+
 }  // namespace bv

@@ -19,7 +19,10 @@ struct Region {
   int16_t start_u = 0, start_v = 0;  // first contour pixel (its left neighbour is not in class)
   int16_t u_min = 0, v_min = 0, u_max = 0, v_max = 0;  // bbox, inclusive
   bool hole = false;                                   // contour of a hole inside another region
-  uint32_t chain_offset = 0;                           // codes in the set's chain pool
+  // 0: centre, area and radius are the region's own. Otherwise they are the circle fitted to the
+  // region's outline (SetCircle), supported in this many of 16 sectors around its centre.
+  uint8_t arc_sectors = 0;
+  uint32_t chain_offset = 0;  // codes in the set's chain pool
   uint32_t chain_length = 0;
   float polygon_area_px = 0;   // area enclosed by the boundary-pixel-centre polygon
   float area_px = 0;           // pixel count incl. holes: polygon + length/2 + 1 (Pick)
@@ -35,6 +38,28 @@ struct Region {
 };
 
 inline constexpr float kHullMinArea = 8.0f;
+
+/// The dominant circular arc of a region's outline: a ball merged with a same-coloured object
+/// behind it, or partly hidden, keeps most of its own outline, whose circle gives its true centre
+/// and radius where the region's centroid does not.
+struct CircleFit {
+  float cu_px = 0, cv_px = 0;
+  float radius_px = 0;  // of the ball's pixels (boundary pixel centres + 0.5)
+  int sectors = 0;      // longest run of the 16 sectors around it with outline points on it
+  float on_circle = 0;  // fraction of the outline's points on the circle
+};
+inline constexpr int kCircleSectors = 16;
+inline constexpr uint32_t kMinArcPoints = 16;  // outline points on a fitted circle, at least
+struct CircleSearch {
+  float r_min_px = 2, r_max_px = 1000;
+  // The radius expected (0: unknown). Hypotheses then span a fixed arc of that circle, wherever
+  // it lies on a long merged outline; otherwise a sixth and a third of the outline.
+  float expected_radius_px = 0;
+  int min_sectors = 8;
+  // When max_centre_px > 0: only circles centred within it of (cu_px, cv_px), the predicted ball
+  // (a ball merged with a cone also has the cone's outline, which some circle fits too).
+  float cu_px = 0, cv_px = 0, max_centre_px = 0;
+};
 
 /// Freeman directions: 0 = +u, 2 = -v (up), 4 = -u, 6 = +v; odd codes are diagonals.
 inline constexpr int kChainDu[8] = {1, 1, 0, -1, -1, -1, 0, 1};
@@ -67,6 +92,12 @@ class RegionSetBase {
   std::span<const uint8_t> chain(const Region& r) const {
     return {chain_ + r.chain_offset, r.chain_length};
   }
+  /// The circle of region `i`'s outline that `search` allows, with outline points in at least
+  /// `search.min_sectors` of 16 sectors around it; false when there is none. Reads no pixels: the
+  /// chain is walked a few times, at most 72 three-point hypotheses are scored on 48 samples.
+  bool FitCircle(size_t i, const CircleSearch& search, CircleFit& out) const;
+  /// Region `i` is described by `fit` from now on (centre, area of the disc, arc_sectors).
+  void SetCircle(size_t i, const CircleFit& fit);
   uint32_t pixels_read() const { return pixels_read_; }
   uint32_t overflows() const { return overflows_; }
   uint32_t dropped_small() const { return dropped_small_; }

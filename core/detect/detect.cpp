@@ -14,11 +14,13 @@ Status BallFinder::Init(const ScanlineTableBase& scanlines, const BallFinderConf
       !(config.min_roundness >= 0.0f && config.min_roundness <= 1.0f) ||
       !(config.min_hull_roundness >= 0.0f && config.min_hull_roundness <= 1.0f) ||
       !(config.min_width_ratio >= 0.0f && config.min_width_ratio <= 1.0f) ||
-      !(config.min_area_px >= 1.0f) || config.prng_seed == 0) {
+      !(config.min_area_px >= 1.0f) || config.prng_seed == 0 || config.min_arc_sectors < 1 ||
+      config.min_arc_sectors > kCircleSectors || config.min_arc_sectors_sized < 1 ||
+      config.min_arc_sectors_sized > kCircleSectors) {
     return Status(
         StatusCode::kInvalidArgument,
         "BallFinder::Init: attention_samples > 256, a roundness or width ratio outside 0..1, "
-        "min_area < 1 or prng_seed 0");
+        "min_area < 1, prng_seed 0 or min_arc_sectors outside 1..16");
   }
   scan_ = &scanlines;
   config_ = config;
@@ -58,7 +60,8 @@ bool BallFinder::Passes(const Region& r, bool& in_field) const {
   const bool clean = r.roundness >= config_.min_roundness;
   const bool compact =
       r.hull_roundness >= config_.min_hull_roundness && r.width_ratio >= config_.min_width_ratio;
-  if (r.area_px < config_.min_area_px || !(clean || compact)) return false;
+  const bool circle = r.arc_sectors > 0;
+  if (r.area_px < config_.min_area_px || !(clean || compact || circle)) return false;
   in_field = config_.field == nullptr ||
              config_.field->Inside(r.cu_px, r.cv_px, std::sqrt(r.area_px / 3.14159265f));
   return in_field || !reject_outside_;
@@ -71,6 +74,7 @@ size_t BallFinder::Candidates(std::span<BallDetection> out) const {
     if (r.hole || !Passes(r, in_field)) continue;
     BallDetection d;
     d.found = true;
+    d.arc_sectors = r.arc_sectors;
     d.u_px = r.cu_px;
     d.v_px = r.cv_px;
     d.area_px = r.area_px;
@@ -85,6 +89,60 @@ size_t BallFinder::Candidates(std::span<BallDetection> out) const {
     if (k < out.size()) out[k] = d;
   }
   return n;
+}
+
+// A region that is not a clean disc gets the circle of its outline when one spans enough of it:
+// the ball's own centre and radius, where the centroid is pulled towards whatever it merged with
+// or away from what hides it. A nearly whole circle on a region no larger keeps the centroid (it
+// averages every pixel).
+void BallFinder::FitCircles(const Prediction* prediction) {
+  constexpr float kCleanHull = 0.9f, kCleanWidth = 0.85f;
+  constexpr int kWholeSectors = 14;
+  // Below this an outline has too few pixels to show a circle's curvature (a speck, a far ball).
+  constexpr float kMinCircleRadiusPx = 5.0f;
+  constexpr float kMergedArea = 1.2f;
+  const bool sized = prediction != nullptr && prediction->radius_px > 0.0f;
+  CircleSearch search;
+  if (sized) {
+    // The predicted ball: its radius within the apparent-size ratio the pipeline allows, its
+    // centre within a radius of the prediction.
+    search.r_min_px = 0.8f * prediction->radius_px;
+    search.r_max_px = 1.25f * prediction->radius_px + 1.0f;
+    search.min_sectors = config_.min_arc_sectors_sized;
+    search.expected_radius_px = prediction->radius_px;
+    search.cu_px = prediction->u_px;
+    search.cv_px = prediction->v_px;
+    search.max_centre_px = std::max(prediction->radius_px, 6.0f);
+  } else {
+    search.r_min_px = kMinCircleRadiusPx;
+    search.min_sectors = config_.min_arc_sectors;
+  }
+  const float reach = search.max_centre_px + search.r_max_px + 2.0f;
+  int fits = 0;
+  const auto regions = regions_.regions();
+  for (size_t i = 0; i < regions.size() && fits < kMaxCircleFits; ++i) {
+    const Region& r = regions[i];
+    if (r.hole || r.area_px < config_.min_area_px ||
+        (r.hull_roundness >= kCleanHull && r.width_ratio >= kCleanWidth)) {
+      continue;
+    }
+    // Nowhere near the predicted ball: no circle there could be it.
+    if (sized && (static_cast<float>(r.u_min) > search.cu_px + reach ||
+                  static_cast<float>(r.u_max) < search.cu_px - reach ||
+                  static_cast<float>(r.v_min) > search.cv_px + reach ||
+                  static_cast<float>(r.v_max) < search.cv_px - reach)) {
+      continue;
+    }
+    ++fits;
+    if (!sized) {
+      search.r_max_px =
+          0.5f * static_cast<float>(std::max(r.u_max - r.u_min, r.v_max - r.v_min)) + 1.0f;
+    }
+    CircleFit fit;
+    if (!regions_.FitCircle(i, search, fit)) continue;
+    const float disc = 3.14159265f * fit.radius_px * fit.radius_px;
+    if (fit.sectors < kWholeSectors || r.area_px > kMergedArea * disc) regions_.SetCircle(i, fit);
+  }
 }
 
 uint32_t BallFinder::NextRandom() {  // xorshift32
@@ -169,6 +227,7 @@ Status BallFinder::Find(const YuyvImage& image, const ColorLut& lut, const Predi
         in_run = ball;
       });
   stats.scan_pixels = scan_->pixel_count();
+  if (config_.fit_circles) FitCircles(prediction);
 
   // 3. Ball choice.
   const auto regions = regions_.regions();
@@ -214,6 +273,7 @@ Status BallFinder::Find(const YuyvImage& image, const ColorLut& lut, const Predi
   const Region& r = regions[static_cast<size_t>(best)];
   chosen_ = best;
   out.found = true;
+  out.arc_sectors = r.arc_sectors;
   out.u_px = r.cu_px;
   out.v_px = r.cv_px;
   out.area_px = r.area_px;

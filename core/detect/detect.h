@@ -20,7 +20,8 @@ namespace bv {
 /// Predicted image position of the ball (from the filter through the calibration).
 struct Prediction {
   float u_px = 0, v_px = 0;
-  float sigma_px = 8;  // 1-sigma spread of the attention samples
+  float sigma_px = 8;   // 1-sigma spread of the attention samples
+  float radius_px = 0;  // the ball's apparent radius there; 0 when unknown
 };
 
 /// Per-image counters of the front end.
@@ -62,6 +63,15 @@ struct BallFinderConfig {
   int attention_samples = 64;  // N <= kMaxAttentionSamples
   uint32_t prng_seed = 0x2545F491u;
   const FieldPredicate* field = nullptr;  // optional; must outlive the finder
+  // Circles from outlines (perspective images, where a ball is a disc): a region that is not a
+  // clean disc (merged with a same-coloured object behind it, partly hidden) is described by the
+  // circle of its outline when one spans at least min_arc_sectors of 16 sectors (fewer,
+  // min_arc_sectors_sized, when the prediction gives the radius: the arc then only has to fix the
+  // centre); such a region passes the shape test. At most kMaxCircleFits regions a frame, the
+  // prediction's first.
+  bool fit_circles = false;
+  int min_arc_sectors = 8;
+  int min_arc_sectors_sized = 5;
   // ColorLut::Bounds(kBall) of the LUT passed to Find: scanline pixels outside it are rejected
   // without a table lookup. The default box rejects nothing.
   ChromaBox ball_box;
@@ -72,6 +82,7 @@ class BallFinder {
   static constexpr int kMaxAttentionSamples = 256;
   static constexpr size_t kMaxRegions = 48;
   static constexpr size_t kMaxChainCodes = 8192;
+  static constexpr int kMaxCircleFits = 3;
 
   /// `scanlines` must outlive the finder. Errors: kFailedPrecondition (table not built),
   /// kInvalidArgument (bad config).
@@ -100,6 +111,7 @@ class BallFinder {
 
  private:
   bool Passes(const Region& r, bool& in_field) const;
+  void FitCircles(const Prediction* prediction);
   uint32_t NextRandom();
   void Seed(const YuyvImage& image, const ColorLut& lut, int u, int v, FrontEndStats& stats);
 
