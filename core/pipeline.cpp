@@ -18,6 +18,9 @@ constexpr float kMinRollOutSpeedMps = 0.3f;
 constexpr float kAdaptMaxGapM =
     0.02f;  // rays of a confirmed ball meet this close  // per camera, in the acquisition choice
 constexpr int kMinGoalRaysWithoutPose = 3;
+// A dark region inside a goal, behind its line by more than an obstacle centre's error, is the
+// goal's own (its net, the shade under the crossbar); the mouth is widened by a robot's radius.
+constexpr float kObstacleInGoalM = 0.1f, kObstacleGoalSideM = 0.3f;
 
 float AngleBetween(const Eigen::Vector3f& a, const Eigen::Vector3f& b) {
   const float c = a.normalized().dot(b.normalized());
@@ -175,6 +178,31 @@ void Pipeline::NameGoals() {
     features_.goals[kept++] = g;
   }
   features_.goal_count = kept;
+}
+
+// The stands beyond the border, the inside of a goal: dark on green, but where the pose says no
+// robot stands (robots may be anywhere on the border, field_config.h). Without a trusted pose
+// every obstacle is kept.
+void Pipeline::RefuseOffFieldObstacles() {
+  const PoseEstimate& e = localiser_.pose();
+  const float sigma = std::max(e.sigma_x_m, e.sigma_y_m);
+  if (!e.usable() || sigma > config_.localiser.usable_sigma_m) return;
+  const FieldConfig& f = field_model_.config();
+  const float s = std::sin(e.heading_rad), c = std::cos(e.heading_rad);
+  int kept = 0;
+  for (int i = 0; i < features_.obstacle_count; ++i) {
+    const Obstacle& o = features_.obstacles[i];
+    const float fx = e.x_m + o.x_m * s + o.y_m * c;
+    const float fy = e.y_m - o.x_m * c + o.y_m * s;
+    const bool in_goal = std::fabs(fx) > 0.5f * f.length_m + kObstacleInGoalM &&
+                         std::fabs(fy) < 0.5f * f.goal_width_m + kObstacleGoalSideM;
+    if (in_goal || !field_model_.Inside(fx, fy, f.border_m + sigma)) {
+      ++features_.obstacles_refused;
+      continue;
+    }
+    features_.obstacles[kept++] = o;
+  }
+  features_.obstacle_count = kept;
 }
 
 // The in-field rule runs for every ball candidate of both cameras: the pose, its sine and cosine
@@ -407,6 +435,7 @@ Status Pipeline::Process(const FrameInput& in, BallState& out) {
     if (extractor_.Extract(in.omni, *lut_, features_).ok()) {
       localiser_.Update(features_, in.t_us, odometry_pending_ ? odometry_ : nullptr);
       NameGoals();
+      RefuseOffFieldObstacles();
     } else {
       ++stats_.frame_errors;
     }

@@ -165,6 +165,7 @@ class Pipeline {
   PerspField persp_field_;
   void Predict(uint64_t t_us);
   void NameGoals();
+  void RefuseOffFieldObstacles();
   void RefreshFieldRule();
 
   const RigCalibration* calibration_ = nullptr;

@@ -243,7 +243,7 @@ TEST(PipelineSim, StaticGridMeetsTheAccuracyGoals) {
 
 // static_grid: the robot stands 2.8 m in front of the -X goal, facing away from it. The goal is
 // seen in every frame; once the pose is usable (with the half sent, so it is not ambiguous) it is
-// named -X, and the goal's centre lies on the true mouth.
+// named -X, the goal's centre lies on the true mouth, and its dark inside is no obstacle.
 TEST(PipelineSim, TheGoalBehindTheRobotIsFoundAndNamedByThePose) {
   if (!SimAvailable("static_grid")) {
     GTEST_SKIP() << "no sim/static_grid or reference calibration";
@@ -257,7 +257,7 @@ TEST(PipelineSim, TheGoalBehindTheRobotIsFoundAndNamedByThePose) {
   ASSERT_TRUE(cli::ReadCsv(SimDir("static_grid") + "/truth.csv", r.truth, err)) << err;
   host::Sequence seq;
   ASSERT_TRUE(host::LoadSequence(SimDir("static_grid"), seq, err)) << err;
-  int frames = 0, seen = 0, named = 0;
+  int frames = 0, seen = 0, named = 0, refused = 0, kept_in_goal = 0;
   cli::RunSettings rs;
   rs.reset_each_frame = true;
   rs.on_frame = [&](const Pipeline& p, const cli::FrameRecord&) {
@@ -269,6 +269,14 @@ TEST(PipelineSim, TheGoalBehindTheRobotIsFoundAndNamedByThePose) {
     const double h = rh_deg * M_PI / 180.0, dx = -9.0 - rx, dy = -ry;
     const double mx = dx * std::sin(h) - dy * std::cos(h), my = dx * std::cos(h) + dy * std::sin(h);
     const FieldFeatures& f = p.features();
+    // The goal's inside is dark on green too: once the pose is trusted it is not an obstacle.
+    refused += static_cast<int>(f.obstacles_refused);
+    for (int i = 0; p.localisation().usable() && i < f.obstacle_count; ++i) {
+      const Obstacle& o = f.obstacles[i];
+      const double fx = rx + o.x_m * std::sin(h) + o.y_m * std::cos(h);
+      const double fy = ry - o.x_m * std::cos(h) + o.y_m * std::sin(h);
+      kept_in_goal += fx < -9.1 && std::fabs(fy) < 1.3;
+    }
     ASSERT_LE(f.goal_count, 1);
     if (f.goal_count == 0) return;
     ++seen;
@@ -284,6 +292,8 @@ TEST(PipelineSim, TheGoalBehindTheRobotIsFoundAndNamedByThePose) {
   ASSERT_TRUE(cli::RunSequence(seq, *r.pipeline, rs, r.recs, err)) << err;
   EXPECT_EQ(seen, frames);
   EXPECT_GE(named, 3);  // the search takes 28 of the 33 frames
+  EXPECT_EQ(kept_in_goal, 0);
+  EXPECT_GE(refused, 1);  // it was seen there, and counted
 }
 
 TEST(PipelineSim, BounceIsTrackedAndPredicted) {
@@ -356,32 +366,19 @@ TEST(PipelineCli, RunWritesTheDesignColumns) {
   ASSERT_EQ(cli::CmdRun(10, const_cast<char**>(argv)), 0);
   cli::CsvTable t;
   ASSERT_TRUE(cli::ReadCsv(out, t, err)) << err;
-  const std::vector<std::string> want = {"index",
-                                         "t_us",
-                                         "found",
-                                         "x",
-                                         "y",
-                                         "z",
-                                         "vx",
-                                         "vy",
-                                         "vz",
-                                         "mode",
-                                         "omni_u",
-                                         "omni_v",
-                                         "persp_u",
-                                         "persp_v",
-                                         "ray_gap",
-                                         "t_bounce_us",
-                                         "proc_us",
-                                         "px",
-                                         "py",
-                                         "pz",
-                                         "sigma_x",
-                                         "sigma_y",
-                                         "sigma_z",
-                                         "pose_x",
-                                         "pose_y",
-                                         "pose_heading_deg"};
+  const std::vector<std::string> want = {"index",   "t_us",
+                                         "found",   "x",
+                                         "y",       "z",
+                                         "vx",      "vy",
+                                         "vz",      "mode",
+                                         "omni_u",  "omni_v",
+                                         "persp_u", "persp_v",
+                                         "ray_gap", "t_bounce_us",
+                                         "proc_us", "px",
+                                         "py",      "pz",
+                                         "sigma_x", "sigma_y",
+                                         "sigma_z", "pose_x",
+                                         "pose_y",  "pose_heading_deg"};
   EXPECT_EQ(t.header, want);
   ASSERT_EQ(t.rows.size(), 8u);
   EXPECT_EQ(t.rows[0].at("index"), "10");

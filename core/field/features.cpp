@@ -431,7 +431,8 @@ void FieldFeatureExtractor::MergeGoals(FieldFeatures& out) {
 Status FieldFeatureExtractor::Extract(const YuyvImage& omni, const ColorLut& lut,
                                       FieldFeatures& out) {
   out.line_count = out.obstacle_count = out.goal_count = 0;
-  out.lines_dropped = out.obstacles_dropped = out.goals_dropped = out.goals_refused = 0;
+  out.lines_dropped = out.obstacles_dropped = out.obstacles_refused = out.goals_dropped =
+      out.goals_refused = 0;
   out.lookups = 0;
   if (!ready_) return Status(StatusCode::kFailedPrecondition, "field features: not initialised");
   if (omni.data == nullptr || omni.width != kFrameWidth || omni.height != kFrameHeight ||

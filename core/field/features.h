@@ -68,6 +68,7 @@ struct FieldFeatures {
   Obstacle obstacles[kMaxObstacles];
   int obstacle_count = 0;
   uint32_t obstacles_dropped = 0;
+  uint32_t obstacles_refused = 0;  // removed by the pipeline: off the field by the pose
   static constexpr int kMaxGoals = 2;
   Goal goals[kMaxGoals];
   int goal_count = 0;

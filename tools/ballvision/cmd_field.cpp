@@ -134,6 +134,7 @@ struct Figures {
   int frames = 0, frames_pose_usable = 0, ambiguous_frames = 0;
   std::vector<double> line_d;
   int robots_in_range = 0, robots_found = 0, obstacles = 0, obstacles_false = 0;
+  int obstacles_refused = 0;  // by the pose: beyond the border or inside a goal (any range)
   std::vector<double> obstacle_err;
   int ball_vis[2] = {0, 0}, ball_found[2] = {0, 0}, ball_false[2] = {0, 0};
   std::vector<double> centre_err[2];
@@ -185,6 +186,7 @@ void ScoreLines(const FieldFeatures& ff, const FieldModel& model, const TruthRow
 }
 
 void ScoreObstacles(const FieldFeatures& ff, const std::vector<RobotTruth>& robots, Figures& f) {
+  f.obstacles_refused += static_cast<int>(ff.obstacles_refused);
   for (const auto& r : robots) {
     if (std::hypot(r.x, r.y) > kObstacleRangeM) continue;
     ++f.robots_in_range;
@@ -336,8 +338,10 @@ void PrintFigures(const Figures& f, bool have_robots) {
         "median %.3f m\n",
         f.robots_found, f.robots_in_range, pct(f.robots_found, f.robots_in_range), kObstacleHitM,
         f.obstacle_err.empty() ? 0.0 : Median(f.obstacle_err));
-    std::printf("obstacles within 5 m      %d reported, %d false (%.1f %%)\n", f.obstacles,
-                f.obstacles_false, pct(f.obstacles_false, f.obstacles));
+    std::printf(
+        "obstacles within 5 m      %d reported, %d false (%.1f %%); %d refused by the pose (beyond "
+        "the border or inside a goal)\n",
+        f.obstacles, f.obstacles_false, pct(f.obstacles_false, f.obstacles), f.obstacles_refused);
   }
   std::printf(
       "goals within %.0f m         found %d of %d (%.1f %%) within %.2f m of the mouth; %d "
