@@ -137,7 +137,10 @@ struct Figures {
   int obstacles_refused = 0;  // by the pose: beyond the border or inside a goal (any range)
   std::vector<double> obstacle_err;
   int ball_vis[2] = {0, 0}, ball_found[2] = {0, 0}, ball_false[2] = {0, 0};
-  std::vector<double> centre_err[2];
+  std::vector<double> centre_err[2];  // to the whole ball's centre (where the ray points)
+  // To what the detection measures: the visible part's centroid, or for a circle fitted to the
+  // outline (BallDetection::arc_sectors) the whole ball's centre.
+  std::vector<double> centre_err_own[2];
   std::vector<double> err3d;
   int state_found = 0, state_false = 0;
   double max_feature_lookups = 0, sum_feature_lookups = 0;
@@ -292,6 +295,9 @@ void ScoreBall(const BallState& s, const TruthRow& t, Figures& f) {
       if (on_ball) {
         ++f.ball_found[c];
         if (t.proj[c]) f.centre_err[c].push_back(e);
+        if (det[c]->arc_sectors == 0 || t.proj[c]) {
+          f.centre_err_own[c].push_back(det[c]->arc_sectors > 0 ? e : e_vis);
+        }
       }
     }
     if (found && !on_ball) ++f.ball_false[c];
@@ -362,8 +368,12 @@ void PrintFigures(const Figures& f, bool have_robots) {
     std::printf("ball %-5s                found %d of %d visible (%.1f %%), false %d", cams[c],
                 f.ball_found[c], f.ball_vis[c], pct(f.ball_found[c], f.ball_vis[c]),
                 f.ball_false[c]);
+    if (!f.centre_err_own[c].empty()) {
+      std::printf(", centre error median %.2f px p90 %.2f px (of what it measures)",
+                  Median(f.centre_err_own[c]), Percentile(f.centre_err_own[c], 0.9));
+    }
     if (!f.centre_err[c].empty()) {
-      std::printf(", centre error (whole ball) median %.2f px p90 %.2f px", Median(f.centre_err[c]),
+      std::printf(", %.2f / %.2f px (whole ball)", Median(f.centre_err[c]),
                   Percentile(f.centre_err[c], 0.9));
     }
     std::printf("\n");

@@ -24,7 +24,7 @@ import tempfile
 
 LINE = re.compile(
     r"^ball (omni|persp)\s+found (\d+) of (\d+) visible \(([\d.]+) %\), false (\d+), "
-    r"centre error (?:\(whole ball\) )?median ([\d.]+) px p90 ([\d.]+) px")
+    r"centre error median ([\d.]+) px p90 ([\d.]+) px")
 
 
 def run(cmd):
