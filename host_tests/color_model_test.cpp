@@ -114,6 +114,19 @@ TEST(ColorModelTest, FieldLinesSkinWoodAndGreyAreNotBall) {
   EXPECT_EQ(lut->Classify(white.y, white.u, white.v), ColorClass::kLine);
 }
 
+// The background classes of the built-in table (measured on the clutter renders' omni images: a
+// sunlit carpet in a robot's shadow sits at Y 30-50 with U, V 6-15 below grey; a black robot within
+// 4 of grey). A shadow classed as obstacle put robots' feet 0.5 m early and made false obstacles.
+TEST(ColorModelTest, ShadowedCarpetIsFieldABlackRobotAnObstacle) {
+  EXPECT_EQ(BackgroundClass(40, 120, 118), ColorClass::kField);  // carpet in shadow
+  EXPECT_EQ(BackgroundClass(30, 122, 116), ColorClass::kField);
+  EXPECT_EQ(BackgroundClass(90, 110, 105), ColorClass::kField);     // sunlit carpet
+  EXPECT_EQ(BackgroundClass(30, 128, 127), ColorClass::kObstacle);  // black robot
+  EXPECT_EQ(BackgroundClass(45, 125, 126), ColorClass::kObstacle);
+  EXPECT_EQ(BackgroundClass(200, 126, 124), ColorClass::kLine);  // white line, a little green
+  EXPECT_EQ(BackgroundClass(200, 120, 118), ColorClass::kLine);
+}
+
 TEST(ColorModelTest, TheModelsBoundsAreItsParameters) {
   // A model narrowed to orange no longer takes red; one widened to yellow takes yellow.
   BallColorModel orange;

@@ -76,9 +76,11 @@ ColorClass BackgroundClass(uint8_t y, uint8_t u, uint8_t v) {
   const int du = u - 128, dv = v - 128;
   const int adu = du < 0 ? -du : du, adv = dv < 0 ? -dv : dv;
   const int sat = adu > adv ? adu : adv;
-  if (y < 50 && sat < 24) return ColorClass::kObstacle;
   if (y >= 150 && sat < 20) return ColorClass::kLine;
-  if (du < -4 && dv < -4 && y >= 20) return ColorClass::kField;  // green: U and V below grey
+  // Green before dark: a carpet in a robot's or the sun's shadow is dark but keeps its hue (U and
+  // V both below grey); a black robot has none.
+  if (du < -4 && dv < -4 && y >= 20) return ColorClass::kField;
+  if (y < 50 && sat < 24) return ColorClass::kObstacle;
   if (sat < 14 && y < 80) return ColorClass::kObstacle;
   return ColorClass::kUnknown;
 }
