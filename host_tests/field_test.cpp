@@ -27,31 +27,34 @@ double SegDist(double px, double py, double ax, double ay, double bx, double by)
   return std::hypot(px - ax - t * dx, py - ay - t * dy);
 }
 
+// Lines lie inside the areas they bound: each centre half a line width (0.0625 m) inside.
 double BruteDistance(double x, double y) {
+  constexpr double h = 0.0625;
   double d = 1e9;
   for (double sx : {-1.0, 1.0}) {
     for (double sy : {-1.0, 1.0}) {
-      d = std::min(d, SegDist(x, y, -9, 6 * sy, 9, 6 * sy));  // touchlines
-      d = std::min(d, SegDist(x, y, 9 * sx, -6, 9 * sx, 6));  // goal lines
-      d = std::min(d, SegDist(x, y, 6.75 * sx, -3.25, 6.75 * sx, 3.25));
-      d = std::min(d, SegDist(x, y, 6.75 * sx, 3.25 * sy, 9 * sx, 3.25 * sy));
-      d = std::min(d, SegDist(x, y, 8.25 * sx, -1.75, 8.25 * sx, 1.75));
-      d = std::min(d, SegDist(x, y, 8.25 * sx, 1.75 * sy, 9 * sx, 1.75 * sy));
+      d = std::min(d, SegDist(x, y, -(9 - h), (6 - h) * sy, 9 - h, (6 - h) * sy));  // touchlines
+      d = std::min(d, SegDist(x, y, (9 - h) * sx, -(6 - h), (9 - h) * sx, 6 - h));  // goal lines
+      const double pa = 6.75 + h, pw = 3.25 - h, ga = 8.25 + h, gw = 1.75 - h;
+      d = std::min(d, SegDist(x, y, pa * sx, -pw, pa * sx, pw));
+      d = std::min(d, SegDist(x, y, pa * sx, pw * sy, (9 - h) * sx, pw * sy));
+      d = std::min(d, SegDist(x, y, ga * sx, -gw, ga * sx, gw));
+      d = std::min(d, SegDist(x, y, ga * sx, gw * sy, (9 - h) * sx, gw * sy));
       d = std::min(d, std::hypot(x - 6 * sx, y));  // penalty marks
-      // Corner arcs: the quarter inside the field.
-      const double cx = 9 * sx, cy = 6 * sy;
+      // Corner arcs (radius 0.75 to the outer edge): the quarter inside the field.
+      const double cx = 9 * sx, cy = 6 * sy, r = 0.75 - h;
       const double a = std::atan2(y - cy, x - cx);
       const double qx = std::cos(a), qy = std::sin(a);
       if (qx * sx <= 1e-9 && qy * sy <= 1e-9) {
-        d = std::min(d, std::fabs(std::hypot(x - cx, y - cy) - 0.75));
+        d = std::min(d, std::fabs(std::hypot(x - cx, y - cy) - r));
       } else {
-        d = std::min(d, std::hypot(x - (cx - 0.75 * sx), y - cy));
-        d = std::min(d, std::hypot(x - cx, y - (cy - 0.75 * sy)));
+        d = std::min(d, std::hypot(x - (cx - r * sx), y - cy));
+        d = std::min(d, std::hypot(x - cx, y - (cy - r * sy)));
       }
     }
   }
-  d = std::min(d, SegDist(x, y, 0, -6, 0, 6));         // halfway line
-  d = std::min(d, std::fabs(std::hypot(x, y) - 2.0));  // centre circle
+  d = std::min(d, SegDist(x, y, 0, -(6 - h), 0, 6 - h));     // halfway line
+  d = std::min(d, std::fabs(std::hypot(x, y) - (2.0 - h)));  // centre circle
   return d;
 }
 
@@ -73,13 +76,16 @@ TEST(FieldModelTest, DistanceMatchesAnIndependentModelEverywhere) {
   EXPECT_LT(worst, 0.15);
   // On the lines: exact zeros; the gradient points away from the line.
   float gx, gy;
-  EXPECT_NEAR(m->Distance(9.0f, 2.5f, gx, gy), 0.0f, 1e-5f);
+  // Lines are painted inside the areas they bound: the goal line's centre at 9 - 0.0625.
+  EXPECT_NEAR(m->Distance(8.9375f, 2.5f, gx, gy), 0.0f, 1e-5f);
+  EXPECT_NEAR(m->Distance(9.0f, 2.5f, gx, gy), 0.0625f, 1e-5f);
   EXPECT_NEAR(m->Distance(0.0f, -4.0f, gx, gy), 0.0f, 1e-5f);
-  EXPECT_NEAR(m->Distance(2.0f * std::cos(1.0f), -2.0f * std::sin(1.0f), gx, gy), 0.0f, 1e-5f);
-  EXPECT_NEAR(m->Distance(-8.5f, 0.5f, gx, gy), 0.25f, 1e-5f);  // goal area line at -8.25
+  EXPECT_NEAR(m->Distance(1.9375f * std::cos(1.0f), -1.9375f * std::sin(1.0f), gx, gy), 0.0f,
+              1e-5f);
+  EXPECT_NEAR(m->Distance(-8.5f, 0.5f, gx, gy), 0.1875f, 1e-5f);  // goal area line at -8.3125
   EXPECT_NEAR(gx, -1.0f, 1e-5f);
   EXPECT_NEAR(gy, 0.0f, 1e-5f);
-  EXPECT_NEAR(m->Distance(3.2f, 0.0f, gx, gy), 1.2f, 1e-5f);  // the circle beats the mark
+  EXPECT_NEAR(m->Distance(3.2f, 0.0f, gx, gy), 1.2625f, 1e-5f);  // the circle beats the mark
 }
 
 TEST(FieldModelTest, InconsistentConfigurationsAreRefusedWithTheirReason) {
@@ -137,18 +143,22 @@ void MakeLinePoints(const Pose& p, std::mt19937& rng, FieldFeatures& f, double n
     for (double t = 0; t <= len; t += 0.1)
       pts.push_back({ax + (bx - ax) * t / len, ay + (by - ay) * t / len});
   };
+  // Line centres, half a line width inside the areas they bound (as painted).
+  constexpr double h = 0.0625, L = 9 - h, W = 6 - h, pa = 6.75 + h, pw = 3.25 - h, ga = 8.25 + h,
+                   gw = 1.75 - h;
   for (double s : {-1.0, 1.0}) {
-    seg(-9, 6 * s, 9, 6 * s);
-    seg(9 * s, -6, 9 * s, 6);
-    seg(6.75 * s, -3.25, 6.75 * s, 3.25);
-    seg(6.75 * s, 3.25, 9 * s, 3.25);
-    seg(6.75 * s, -3.25, 9 * s, -3.25);
-    seg(8.25 * s, -1.75, 8.25 * s, 1.75);
-    seg(8.25 * s, 1.75, 9 * s, 1.75);
-    seg(8.25 * s, -1.75, 9 * s, -1.75);
+    seg(-L, W * s, L, W * s);
+    seg(L * s, -W, L * s, W);
+    seg(pa * s, -pw, pa * s, pw);
+    seg(pa * s, pw, L * s, pw);
+    seg(pa * s, -pw, L * s, -pw);
+    seg(ga * s, -gw, ga * s, gw);
+    seg(ga * s, gw, L * s, gw);
+    seg(ga * s, -gw, L * s, -gw);
   }
-  seg(0, -6, 0, 6);
-  for (double a = 0; a < 2 * kPi; a += 0.05) pts.push_back({2 * std::cos(a), 2 * std::sin(a)});
+  seg(0, -W, 0, W);
+  for (double a = 0; a < 2 * kPi; a += 0.05)
+    pts.push_back({(2 - h) * std::cos(a), (2 - h) * std::sin(a)});
   std::vector<LinePoint> seen;
   for (const auto& q : pts) {
     double rx, ry;

@@ -82,18 +82,23 @@ Status FieldModel::Init(const FieldConfig& f) {
   BV_TRY(ValidateFieldConfig(f));
   config_ = f;
   const float hl = 0.5f * f.length_m, hw = 0.5f * f.width_m;
+  // Lines are part of the areas they bound (the dimensions are to their outer edges, as the rule
+  // book and the renderer have them): each centre lies half a line width inside its area. Only
+  // the halfway line and the marks are centred on their nominal place.
+  const float h = 0.5f * f.line_width_m;
   // The quadrant x >= 0, y >= 0; the other three are its mirror images.
-  Add(0, 0.0f, hw, hl, hw);      // touchline
-  Add(0, hl, 0.0f, hl, hw);      // goal line
-  Add(0, 0.0f, 0.0f, 0.0f, hw);  // halfway line
-  if (f.center_circle_radius_m > 0.0f) Add(1, 0.0f, 0.0f, f.center_circle_radius_m, 0.0f);
-  const float px = hl - f.penalty_area_depth_m, py = 0.5f * f.penalty_area_width_m;
+  Add(0, 0.0f, hw - h, hl - h, hw - h);  // touchline
+  Add(0, hl - h, 0.0f, hl - h, hw - h);  // goal line
+  Add(0, 0.0f, 0.0f, 0.0f, hw - h);      // halfway line
+  if (f.center_circle_radius_m > 0.0f)
+    Add(1, 0.0f, 0.0f, std::max(0.0f, f.center_circle_radius_m - h), 0.0f);
+  const float px = hl - f.penalty_area_depth_m + h, py = 0.5f * f.penalty_area_width_m - h;
   Add(0, px, 0.0f, px, py);
-  Add(0, px, py, hl, py);
-  const float gx = hl - f.goal_area_depth_m, gy = 0.5f * f.goal_area_width_m;
+  Add(0, px, py, hl - h, py);
+  const float gx = hl - f.goal_area_depth_m + h, gy = 0.5f * f.goal_area_width_m - h;
   Add(0, gx, 0.0f, gx, gy);
-  Add(0, gx, gy, hl, gy);
-  if (f.corner_arc_radius_m > 0.0f) Add(1, hl, hw, f.corner_arc_radius_m, kPi);
+  Add(0, gx, gy, hl - h, gy);
+  if (f.corner_arc_radius_m > 0.0f) Add(1, hl, hw, std::max(0.0f, f.corner_arc_radius_m - h), kPi);
   if (f.penalty_mark_distance_m > 0.0f) Add(2, hl - f.penalty_mark_distance_m, 0.0f, 0.0f, 0.0f);
 
   const float ex = hl + f.border_m + 0.5f, ey = hw + f.border_m + 0.5f;
