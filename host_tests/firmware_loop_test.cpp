@@ -517,6 +517,15 @@ class MainLoopCommandsTest : public MainLoopTest {
     ASSERT_TRUE(n.ok());
     uart_.Feed(std::span<const uint8_t>(wire, *n));
   }
+  // The teach command: the ball at (a, b), a floor point or a pixel of one camera.
+  void Teach(protocol::TeachWhere where, float a, float b) {
+    uint8_t p[protocol::kTeachBallBytes];
+    ByteWriter w(p);
+    w.U8(static_cast<uint8_t>(where));
+    w.F32(a);
+    w.F32(b);
+    Command(protocol::MsgType::kTeachBall, w.written());
+  }
   void Upload(protocol::UploadTarget target, std::span<const uint8_t> blob, uint32_t crc) {
     uint8_t p[5 + protocol::kMaxChunkBytes];
     ByteWriter begin(p);
@@ -606,12 +615,7 @@ TEST_F(MainLoopCommandsTest, TeachAtAPixelLearnsTheBallStoresAndActivatesTheTabl
   Start();
   ASSERT_NE(loop_->lut().Classify(170, 60, 150), ColorClass::kBall) << "test needs a new colour";
   const uint32_t builtin_id = loop_->status().lut_id;
-  uint8_t p[protocol::kTeachBallBytes];
-  ByteWriter w(p);
-  w.U8(static_cast<uint8_t>(protocol::TeachWhere::kPerspPixel));
-  w.F32(318.0f);
-  w.F32(236.0f);
-  Command(protocol::MsgType::kTeachBall, w.written());
+  Teach(protocol::TeachWhere::kPerspPixel, 318.0f, 236.0f);
   loop_->Poll();  // the command: accepted, no reply yet (no pair)
   int acks, errors, statuses;
   uint8_t code = 0;
@@ -639,33 +643,25 @@ TEST_F(MainLoopCommandsTest, TeachRefusalsKeepTheOldTable) {
   PaintDisc(320, 240, 20, 170, 60, 150);
   Start();
   const uint32_t before = loop_->status().lut_id;
-  const auto teach = [&](protocol::TeachWhere where, float a, float b) {
-    uint8_t p[protocol::kTeachBallBytes];
-    ByteWriter w(p);
-    w.U8(static_cast<uint8_t>(where));
-    w.F32(a);
-    w.F32(b);
-    Command(protocol::MsgType::kTeachBall, w.written());
-  };
   int acks, errors, statuses;
   uint8_t code = 0;
   // Grey where the ball was said to be: no ball.
-  teach(protocol::TeachWhere::kOmniPixel, 40, 40);
+  Teach(protocol::TeachWhere::kOmniPixel, 40, 40);
   camera_.AddRegular(1, 33333);
   loop_->RunUntilFinished();
   Replies(acks, errors, statuses, code);
   EXPECT_EQ(errors, 1);
   EXPECT_EQ(code, static_cast<uint8_t>(protocol::CommandError::kNoBall));
   // A floor point without a calibration.
-  teach(protocol::TeachWhere::kFloorPoint, 1.0f, 2.0f);
+  Teach(protocol::TeachWhere::kFloorPoint, 1.0f, 2.0f);
   camera_.Add({33333, 0, 0});
   loop_->RunUntilFinished();
   Replies(acks, errors, statuses, code);
   EXPECT_EQ(errors, 2);
   EXPECT_EQ(code, static_cast<uint8_t>(protocol::CommandError::kUnsupported));
   // Out of range, NaN: refused at once.
-  teach(protocol::TeachWhere::kPerspPixel, -1.0f, 3.0f);
-  teach(protocol::TeachWhere::kFloorPoint, std::nanf(""), 3.0f);
+  Teach(protocol::TeachWhere::kPerspPixel, -1.0f, 3.0f);
+  Teach(protocol::TeachWhere::kFloorPoint, std::nanf(""), 3.0f);
   Drain();
   Replies(acks, errors, statuses, code);
   EXPECT_EQ(errors, 4);
@@ -679,7 +675,7 @@ TEST_F(MainLoopCommandsTest, TeachRefusalsKeepTheOldTable) {
     Command(protocol::MsgType::kUploadBegin, begin.written());
   };
   // An upload begin while a teach waits for its pair: busy (the teach works in the buffer).
-  teach(protocol::TeachWhere::kPerspPixel, 320, 240);
+  Teach(protocol::TeachWhere::kPerspPixel, 320, 240);
   upload_begin();
   Drain();
   Replies(acks, errors, statuses, code);
@@ -693,7 +689,7 @@ TEST_F(MainLoopCommandsTest, TeachRefusalsKeepTheOldTable) {
   EXPECT_NE(taught, before);
   // During an upload: busy; the upload goes on.
   upload_begin();
-  teach(protocol::TeachWhere::kPerspPixel, 320, 240);
+  Teach(protocol::TeachWhere::kPerspPixel, 320, 240);
   Drain();
   Replies(acks, errors, statuses, code);
   EXPECT_EQ(errors, 6);
@@ -748,12 +744,7 @@ TEST_F(MainLoopCommandsTest, TeachingAColourTheFieldHasIsRefused) {
   PaintDisc(480, 240, 140, 120, 118, 90);
   Start();
   const uint32_t before = loop_->status().lut_id;
-  uint8_t p[protocol::kTeachBallBytes];
-  ByteWriter w(p);
-  w.U8(static_cast<uint8_t>(protocol::TeachWhere::kPerspPixel));
-  w.F32(160.0f);
-  w.F32(240.0f);
-  Command(protocol::MsgType::kTeachBall, w.written());
+  Teach(protocol::TeachWhere::kPerspPixel, 160.0f, 240.0f);
   camera_.AddRegular(1, 33333);
   loop_->RunUntilFinished();
   int acks, errors, statuses;
