@@ -11,16 +11,22 @@ namespace {
 constexpr float kRimMarginPx = 3.f;  // a ball this close to the mirror rim may be cut by it
 constexpr float kMaxApparentSizeRatio = 1.25f;  // persp radius / a ball's at the stereo range
 constexpr float kStereoGapM = 0.08f, kStereoGapPerM = 0.02f;
-constexpr size_t kStereoCandidates = 4;
+constexpr size_t kStereoCandidates = 4;  // per camera, in the acquisition choice
 // A track outside the field is kept only while it moves at least this fast (a ball rolling out;
 // the distractors behind a line stand still).
 constexpr float kMinRollOutSpeedMps = 0.3f;
-constexpr float kAdaptMaxGapM =
-    0.02f;  // rays of a confirmed ball meet this close  // per camera, in the acquisition choice
+constexpr float kAdaptMaxGapM = 0.02f;  // rays of a confirmed ball meet this close
 constexpr int kMinGoalRaysWithoutPose = 3;
 // A dark region inside a goal, behind its line by more than an obstacle centre's error, is the
 // goal's own (its net, the shade under the crossbar); the mouth is widened by a robot's radius.
 constexpr float kObstacleInGoalM = 0.1f, kObstacleGoalSideM = 0.3f;
+
+// Robot frame to field frame for a pose (x, y) with heading h given as s = sin h, c = cos h:
+// robot +x is (sin h, -cos h) in the field, robot +y is (cos h, sin h).
+void RobotToField(float px, float py, float s, float c, float x, float y, float& fx, float& fy) {
+  fx = px + x * s + y * c;
+  fy = py - x * c + y * s;
+}
 
 float AngleBetween(const Eigen::Vector3f& a, const Eigen::Vector3f& b) {
   const float c = a.normalized().dot(b.normalized());
@@ -125,10 +131,15 @@ Status Pipeline::SetOdometry(float dx_m, float dy_m, float dheading_rad) {
   return Status();
 }
 
+bool Pipeline::OwnPoseTrusted() const {
+  const PoseEstimate& e = localiser_.pose();
+  return features_ready_ && e.usable() &&
+         std::max(e.sigma_x_m, e.sigma_y_m) <= config_.localiser.usable_sigma_m;
+}
+
 bool Pipeline::FieldPose(RobotPose& pose, float& sigma_m) const {
   const PoseEstimate& e = localiser_.pose();
-  if (features_ready_ && e.usable() &&
-      std::max(e.sigma_x_m, e.sigma_y_m) <= config_.localiser.usable_sigma_m) {
+  if (OwnPoseTrusted()) {
     pose.known = true;
     pose.x_m = e.x_m;
     pose.y_m = e.y_m;
@@ -147,7 +158,7 @@ bool Pipeline::FieldPose(RobotPose& pose, float& sigma_m) const {
 // `which` open too.
 void Pipeline::NameGoals() {
   const PoseEstimate& e = localiser_.pose();
-  if (!e.usable() || std::max(e.sigma_x_m, e.sigma_y_m) > config_.localiser.usable_sigma_m) {
+  if (!OwnPoseTrusted()) {
     // Nothing to check against: only goals seen on several rays (a goal 2 m wide covers >= 4
     // of 64 rays up to 5 m; a person behind a line 1-2).
     int kept = 0;
@@ -166,8 +177,8 @@ void Pipeline::NameGoals() {
   int kept = 0;
   for (int i = 0; i < features_.goal_count; ++i) {
     Goal g = features_.goals[i];
-    const float fx = e.x_m + g.x_m * s + g.y_m * c;
-    const float fy = e.y_m - g.x_m * c + g.y_m * s;
+    float fx, fy;
+    RobotToField(e.x_m, e.y_m, s, c, g.x_m, g.y_m, fx, fy);
     if (std::fabs(std::fabs(fx) - 0.5f * f.length_m) > 0.5f * f.goal_width_m ||
         std::fabs(fy) > f.goal_width_m) {
       ++features_.goals_refused;
@@ -184,16 +195,16 @@ void Pipeline::NameGoals() {
 // robot stands (robots may be anywhere on the border, field_config.h). Without a trusted pose
 // every obstacle is kept.
 void Pipeline::RefuseOffFieldObstacles() {
+  if (!OwnPoseTrusted()) return;
   const PoseEstimate& e = localiser_.pose();
   const float sigma = std::max(e.sigma_x_m, e.sigma_y_m);
-  if (!e.usable() || sigma > config_.localiser.usable_sigma_m) return;
   const FieldConfig& f = field_model_.config();
   const float s = std::sin(e.heading_rad), c = std::cos(e.heading_rad);
   int kept = 0;
   for (int i = 0; i < features_.obstacle_count; ++i) {
     const Obstacle& o = features_.obstacles[i];
-    const float fx = e.x_m + o.x_m * s + o.y_m * c;
-    const float fy = e.y_m - o.x_m * c + o.y_m * s;
+    float fx, fy;
+    RobotToField(e.x_m, e.y_m, s, c, o.x_m, o.y_m, fx, fy);
     const bool in_goal = std::fabs(fx) > 0.5f * f.length_m + kObstacleInGoalM &&
                          std::fabs(fy) < 0.5f * f.goal_width_m + kObstacleGoalSideM;
     if (in_goal || !field_model_.Inside(fx, fy, f.border_m + sigma)) {
@@ -225,9 +236,8 @@ void Pipeline::RefreshFieldRule() {
 bool Pipeline::InField(float x_m, float y_m) const {
   const FieldRule& r = field_rule_;
   if (!r.active) return true;
-  // Robot +x is (sin h, -cos h) in the field, robot +y is (cos h, sin h).
-  const float fx = r.x + x_m * r.s + y_m * r.c;
-  const float fy = r.y - x_m * r.c + y_m * r.s;
+  float fx, fy;
+  RobotToField(r.x, r.y, r.s, r.c, x_m, y_m, fx, fy);
   return std::fabs(fx) <= r.half_x && std::fabs(fy) <= r.half_y;
 }
 

@@ -164,6 +164,7 @@ class Pipeline {
   OmniField omni_field_;
   PerspField persp_field_;
   void Predict(uint64_t t_us);
+  bool OwnPoseTrusted() const;  // the localiser's pose, usable and within usable_sigma_m
   void NameGoals();
   void RefuseOffFieldObstacles();
   void RefreshFieldRule();
