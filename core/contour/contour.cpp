@@ -202,6 +202,17 @@ SeedOutcome RegionSetBase::TraceSeed(const YuyvImage& img, const ColorLut& lut, 
 namespace {
 constexpr int kCircleSamples = 48;
 
+// fn(j, x, y) for each of the outline's points in chain order, relative to the start pixel.
+template <typename Fn>
+void ForEachOutlinePoint(const uint8_t* codes, uint32_t len, Fn&& fn) {
+  int x = 0, y = 0;
+  for (uint32_t j = 0; j < len; ++j) {
+    fn(j, x, y);
+    x += kChainDu[codes[j]];
+    y += kChainDv[codes[j]];
+  }
+}
+
 // Circle through three points; false when they are (nearly) collinear.
 bool Circumcircle(float ax, float ay, float bx, float by, float cx, float cy, float& ox, float& oy,
                   float& r2) {
@@ -245,30 +256,36 @@ int LongestRun(uint32_t mask) {
 // classification add a little with the size.
 float CircleTolerance(float r) { return 0.9f + 0.06f * r; }
 
+// The outline points that count as on the circle of radius r: squared distances from its centre
+// within the tolerance band.
+struct Ring {
+  float lo2, hi2;
+  bool Holds(float z) const { return z >= lo2 && z <= hi2; }
+};
+Ring RingOf(float r) {
+  const float tol = CircleTolerance(r), lo = std::max(0.0f, r - tol);
+  return {lo * lo, (r + tol) * (r + tol)};
+}
+
 // The outline's points (relative to the start pixel) near the circle (ox, oy, r): Kasa's
 // algebraic fit over them. Coordinates relative to the old centre keep the sums well scaled.
 bool RefineCircle(const uint8_t* codes, uint32_t len, float& ox, float& oy, float& r) {
-  const float tol = CircleTolerance(r);
-  const float lo2 = std::max(0.0f, r - tol) * std::max(0.0f, r - tol), hi2 = (r + tol) * (r + tol);
+  const Ring ring = RingOf(r);
   float sxx = 0, sxy = 0, syy = 0, sx = 0, sy = 0, sxz = 0, syz = 0, sz = 0, n = 0;
-  int x = 0, y = 0;
-  for (uint32_t i = 0; i < len; ++i) {
+  ForEachOutlinePoint(codes, len, [&](uint32_t, int x, int y) {
     const float px = static_cast<float>(x) - ox, py = static_cast<float>(y) - oy;
     const float z = px * px + py * py;
-    if (z >= lo2 && z <= hi2) {
-      sxx += px * px;
-      sxy += px * py;
-      syy += py * py;
-      sx += px;
-      sy += py;
-      sxz += px * z;
-      syz += py * z;
-      sz += z;
-      n += 1.0f;
-    }
-    x += kChainDu[codes[i]];
-    y += kChainDv[codes[i]];
-  }
+    if (!ring.Holds(z)) return;
+    sxx += px * px;
+    sxy += px * py;
+    syy += py * py;
+    sx += px;
+    sy += py;
+    sxz += px * z;
+    syz += py * z;
+    sz += z;
+    n += 1.0f;
+  });
   if (n < 6.0f) return false;
   // [sxx sxy sx; sxy syy sy; sx sy n] (D, E, F) = -(sxz, syz, sz), by Cramer's rule.
   const double a11 = sxx, a12 = sxy, a13 = sx, a22 = syy, a23 = sy, a33 = n;
@@ -304,18 +321,15 @@ bool RegionSetBase::FitCircle(size_t i, const CircleSearch& search, CircleFit& o
   // Evenly spaced outline samples, relative to the start pixel.
   const int n = static_cast<int>(std::min<uint32_t>(len, kCircleSamples));
   int16_t sx[kCircleSamples], sy[kCircleSamples];
-  {
-    int x = 0, y = 0, k = 0;
-    for (uint32_t j = 0; j < len && k < n; ++j) {
-      if (static_cast<uint64_t>(j) * static_cast<uint32_t>(n) >= static_cast<uint64_t>(k) * len) {
-        sx[k] = static_cast<int16_t>(x);
-        sy[k] = static_cast<int16_t>(y);
-        ++k;
-      }
-      x += kChainDu[codes[j]];
-      y += kChainDv[codes[j]];
+  int taken = 0;
+  ForEachOutlinePoint(codes, len, [&](uint32_t j, int x, int y) {
+    if (taken < n &&
+        static_cast<uint64_t>(j) * static_cast<uint32_t>(n) >= static_cast<uint64_t>(taken) * len) {
+      sx[taken] = static_cast<int16_t>(x);
+      sy[taken] = static_cast<int16_t>(y);
+      ++taken;
     }
-  }
+  });
   // Boundary pixel centres lie half a pixel inside the ball's edge. No circle is wider than the
   // region is long (a straight edge is an arc of a huge circle).
   const float c_min = search.r_min_px - 0.5f;
@@ -365,16 +379,14 @@ bool RegionSetBase::FitCircle(size_t i, const CircleSearch& search, CircleFit& o
       if (!Circumcircle(sx[j], sy[j], sx[b], sy[b], sx[c], sy[c], ox, oy, r2)) continue;
       const float r = std::sqrt(r2);
       if (r < c_min || r > c_max || too_far(ox, oy)) continue;
-      const float tol = CircleTolerance(r);
-      const float lo2 = std::max(0.0f, r - tol) * std::max(0.0f, r - tol),
-                  hi2 = (r + tol) * (r + tol);
+      const Ring ring = RingOf(r);
       // Score: the longest run of consecutive samples on the circle (round the closed outline). An
       // arc is one run; a large circle through scattered outline points collects short ones.
       int run = 0, lead = -1, count = 0;
       for (int k = 0; k < n; ++k) {
         const float dx = static_cast<float>(sx[k]) - ox, dy = static_cast<float>(sy[k]) - oy;
         const float z = dx * dx + dy * dy;
-        if (z >= lo2 && z <= hi2) {
+        if (ring.Holds(z)) {
           count = std::max(count, ++run);
         } else {
           if (lead < 0) lead = run;
@@ -405,21 +417,14 @@ bool RegionSetBase::FitCircle(size_t i, const CircleSearch& search, CircleFit& o
   }
   if (br < c_min || br > c_max || too_far(bx, by)) return false;
   // Support: the sectors around the centre that hold outline points on the circle.
-  const float tol = CircleTolerance(br);
-  const float lo2 = std::max(0.0f, br - tol) * std::max(0.0f, br - tol),
-              hi2 = (br + tol) * (br + tol);
+  const Ring ring = RingOf(br);
   uint32_t mask = 0, on = 0;
-  int x = 0, y = 0;
-  for (uint32_t j = 0; j < len; ++j) {
+  ForEachOutlinePoint(codes, len, [&](uint32_t, int x, int y) {
     const float dx = static_cast<float>(x) - bx, dy = static_cast<float>(y) - by;
-    const float z = dx * dx + dy * dy;
-    if (z >= lo2 && z <= hi2) {
-      mask |= 1u << Sector(dx, dy);
-      ++on;
-    }
-    x += kChainDu[codes[j]];
-    y += kChainDv[codes[j]];
-  }
+    if (!ring.Holds(dx * dx + dy * dy)) return;
+    mask |= 1u << Sector(dx, dy);
+    ++on;
+  });
   out.cu_px = static_cast<float>(reg.start_u) + bx;
   out.cv_px = static_cast<float>(reg.start_v) + by;
   out.radius_px = br + 0.5f;
