@@ -94,6 +94,39 @@ TEST(ColorLutTest, ChromaBoxHoldsEveryBallPixel) {
   EXPECT_TRUE(ChromaBox{}.Contains(0, 255));
 }
 
+TEST(ColorLutTest, PairChromaTestKeepsExactlyWhatItsBoxContains) {
+  // The scanlines' test on a whole YUYV pair word (Y0 U Y1 V): the box's U and V ranges, Y
+  // ignored; a wrapped range (min > max) keeps everything, a superset of Contains().
+  const ChromaBox boxes[] = {ChromaBox{}, ChromaBox{100, 140, 160, 200, false},
+                             ChromaBox{0, 0, 255, 255, false}, ChromaBox{200, 40, 10, 90, false}};
+  uint32_t seed = 12345;
+  for (const ChromaBox& box : boxes) {
+    const PairChromaTest test(box);
+    const bool wraps = box.u_min > box.u_max || box.v_min > box.v_max;
+    for (int i = 0; i < 20000; ++i) {
+      seed = seed * 1664525u + 1013904223u;
+      const uint32_t w = seed;
+      const auto u = static_cast<uint8_t>(w >> 8), v = static_cast<uint8_t>(w >> 24);
+      if (!wraps) {
+        ASSERT_EQ(test.Holds(w), box.Contains(u, v)) << std::hex << w;
+      } else if (box.Contains(u, v)) {
+        ASSERT_TRUE(test.Holds(w)) << std::hex << w;
+      }
+    }
+    // The range ends themselves, with any Y.
+    if (!wraps) {
+      const uint32_t y = 0x00FF00FFu;
+      EXPECT_TRUE(test.Holds(y | uint32_t{box.u_min} << 8 | uint32_t{box.v_max} << 24));
+      EXPECT_TRUE(test.Holds(uint32_t{box.u_max} << 8 | uint32_t{box.v_min} << 24));
+    }
+  }
+  const PairChromaTest narrow(ChromaBox{100, 140, 160, 200, false});
+  EXPECT_FALSE(narrow.Holds(99u << 8 | 180u << 24));
+  EXPECT_FALSE(narrow.Holds(141u << 8 | 180u << 24));
+  EXPECT_FALSE(narrow.Holds(120u << 8 | 159u << 24));
+  EXPECT_FALSE(narrow.Holds(120u << 8 | 201u << 24));
+}
+
 TEST(ColorLutTest, BlobRoundTrip) {
   auto lut = Pattern();
   std::vector<uint8_t> blob(kColorLutBlobBytes);

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <memory>
 #include <vector>
 
@@ -163,6 +164,64 @@ TEST(ScanlineTest, CapacityOverflowLeavesTableEmpty) {
   auto p = std::make_unique<ScanlineTable<2000>>();
   EXPECT_EQ(p->BuildPersp(ReferencePerspScanConfig(), 640, 480).code(),
             StatusCode::kResourceExhausted);
+}
+
+TEST(ScanlineTest, KeptPairsAreTheKeptSamplesInOrderAndFollowsMeansTheSampleBeforeWasKept) {
+  // A large mirror ring leaves gaps over 255 px (escape entries) on rows through the body; every
+  // sample's pair word is a hash of its position, and a third of them are kept.
+  constexpr int kW = 1280, kH = 960;
+  auto t = std::make_unique<ScanlineTable<65535>>();
+  OmniScanConfig c;
+  c.center_u = 640.3f;
+  c.center_v = 480.2f;
+  c.inner_radius_px = 300;
+  c.outer_radius_px = 470;
+  c.diameter.count = 2;
+  c.diameter.at_px[0] = 300;
+  c.diameter.at_px[1] = 470;
+  c.diameter.diameter_px[0] = 24;
+  c.diameter.diameter_px[1] = 12;
+  ASSERT_TRUE(t->BuildOmni(c, kW, kH).ok());
+  std::vector<uint8_t> frame(static_cast<size_t>(kW) * kH * 2);
+  uint32_t seed = 7;
+  for (uint8_t& b : frame) {
+    seed = seed * 1664525u + 1013904223u;
+    b = static_cast<uint8_t>(seed >> 24);
+  }
+  auto keep = [](uint32_t w) { return (w >> 8 & 0xFFu) % 3 == 0; };
+  struct Hit {
+    int u, v;
+    uint32_t w;
+    bool follows;
+    bool operator==(const Hit&) const = default;
+  };
+  std::vector<Hit> want, got;
+  int row_v = -1, in_row = 0, escapes = 0;
+  bool prev_kept = false;
+  t->ForEachSample(
+      [&](int v) {
+        row_v = v;
+        in_row = 0;
+      },
+      [&](int u, bool restart) {
+        uint32_t w;
+        std::memcpy(&w, &frame[(static_cast<size_t>(row_v) * kW + (u & ~1)) * 2], 4);
+        if (restart && in_row > 0) ++escapes;
+        const bool k = keep(w);
+        if (k) want.push_back({u, row_v, w, !restart && prev_kept});
+        prev_kept = k;
+        ++in_row;
+      });
+  t->ForEachKeptPair(frame.data(), kW * 2, 64, keep, [&](int u, int v, uint32_t w, bool follows) {
+    got.push_back({u, v, w, follows});
+  });
+  EXPECT_GT(escapes, 0) << "the pattern must exercise escape entries";
+  ASSERT_GT(want.size(), 1000u);
+  ASSERT_EQ(got.size(), want.size());
+  for (size_t i = 0; i < want.size(); ++i) ASSERT_TRUE(got[i] == want[i]) << "hit " << i;
+  int follows = 0;
+  for (const Hit& h : got) follows += h.follows;
+  EXPECT_GT(follows, 0);
 }
 
 }  // namespace

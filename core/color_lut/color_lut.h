@@ -8,6 +8,10 @@
 #include <cstdint>
 #include <span>
 
+#if defined(__ARM_FEATURE_SIMD32) && __ARM_FEATURE_SIMD32
+#include <arm_acle.h>
+#endif
+
 #include "core/common/status.h"
 
 namespace bv {
@@ -31,6 +35,32 @@ struct ChromaBox {
     return static_cast<uint8_t>(u - u_min) <= static_cast<uint8_t>(u_max - u_min) &&
            static_cast<uint8_t>(v - v_min) <= static_cast<uint8_t>(v_max - v_min);
   }
+};
+
+/// A ChromaBox as a test on a YUYV pixel pair read as one little-endian word (Y0 U Y1 V): two
+/// saturating byte subtractions on the M7's DSP extension, plain compares elsewhere. It keeps a
+/// superset of what Contains() keeps: an axis whose range wraps (min > max) keeps everything.
+class PairChromaTest {
+ public:
+  explicit constexpr PairChromaTest(const ChromaBox& b) {
+    const bool u_ok = b.u_min <= b.u_max, v_ok = b.v_min <= b.v_max;
+    const uint32_t u_lo = u_ok ? b.u_min : 0, u_hi = u_ok ? b.u_max : 255;
+    const uint32_t v_lo = v_ok ? b.v_min : 0, v_hi = v_ok ? b.v_max : 255;
+    lo_ = u_lo << 8 | v_lo << 24;  // Y lanes 0 and 255: never out of range
+    hi_ = 0xFFu | u_hi << 8 | 0xFFu << 16 | v_hi << 24;
+  }
+  bool Holds(uint32_t pair_word) const {
+#if defined(__ARM_FEATURE_SIMD32) && __ARM_FEATURE_SIMD32
+    return (__uqsub8(lo_, pair_word) | __uqsub8(pair_word, hi_)) == 0;
+#else
+    const uint32_t u = (pair_word >> 8) & 0xFFu, v = pair_word >> 24;
+    return u >= ((lo_ >> 8) & 0xFFu) && u <= ((hi_ >> 8) & 0xFFu) && v >= (lo_ >> 24) &&
+           v <= (hi_ >> 24);
+#endif
+  }
+
+ private:
+  uint32_t lo_ = 0, hi_ = 0xFFFFFFFFu;
 };
 
 /// The smallest box holding both.

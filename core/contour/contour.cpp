@@ -42,6 +42,9 @@ void HullShape(const uint8_t* codes, uint32_t len, Region& r) {
   for (uint32_t i = 0; i < len; ++i) {
     x += kChainDu[codes[i]];
     y += kChainDv[codes[i]];
+    // Along a straight run a projection is linear: its extremes are at the run's ends (the corners,
+    // and the start, which lo/hi = 0 already hold). Same result, a fraction of the work.
+    if (i + 1 < len && codes[i + 1] == codes[i]) continue;
     for (int k = 0; k < 8; ++k) {
       const int32_t p = x * kDirCos[k] + y * kDirSin[k];
       lo[k] = p < lo[k] ? p : lo[k];
@@ -69,11 +72,18 @@ bool RegionSetBase::Trace(const YuyvImage& img, const ColorLut& lut, ColorClass 
   out.start_u = static_cast<int16_t>(u0);
   out.start_v = static_cast<int16_t>(v0);
   out.chain_offset = static_cast<uint32_t>(chain_used_);
+  // Locals, not members: the chain is written through a uint8_t pointer, which may alias any
+  // member, and every member read in the loop would be reloaded after each write.
+  const YuyvImage image = img;
+  uint8_t* const codes = chain_ + chain_used_;
+  const size_t room = chain_capacity_ - chain_used_;
+  uint32_t reads = 0;
   int u_min = u0, u_max = u0, v_min = v0, v_max = v0;
-  // Moments of the boundary-pixel-centre polygon, relative to the start pixel (exact integers).
+  // Moments of the boundary-pixel-centre polygon, relative to the start pixel (exact integers:
+  // each step's terms fit 32 bits for images up to 4096 px, their sums need 64).
   int64_t a2 = 0, mx6 = 0, my6 = 0;
-  int64_t sum_x = 0, sum_y = 0;
-  int n_even = 0, n_odd = 0, n_corner = 0;
+  int32_t sum_x = 0, sum_y = 0;
+  int n_odd = 0, n_corner = 0;
   int x = 0, y = 0;  // position relative to the start
   int u = u0, v = v0;
   int search = 4;  // the left neighbour of the start pixel is outside the region
@@ -83,8 +93,8 @@ bool RegionSetBase::Trace(const YuyvImage& img, const ColorLut& lut, ColorClass 
     int dir = -1;
     for (int k = 0; k < 8; ++k) {
       const int d = (search + k) & 7;
-      ++pixels_read_;
-      if (ClassAt(img, lut, u + kChainDu[d], v + kChainDv[d]) == cls) {
+      ++reads;
+      if (ClassAt(image, lut, u + kChainDu[d], v + kChainDv[d]) == cls) {
         dir = d;
         break;
       }
@@ -92,30 +102,34 @@ bool RegionSetBase::Trace(const YuyvImage& img, const ColorLut& lut, ColorClass 
     if (dir < 0) break;  // isolated pixel
     if (len > 0 && u == u0 && v == v0 && dir == first_dir) break;
     if (first_dir < 0) first_dir = dir;
-    if (chain_used_ + len >= chain_capacity_) return false;
-    chain_[chain_used_ + len] = static_cast<uint8_t>(dir);
-    ++len;
-    const int nx = x + kChainDu[dir], ny = y + kChainDv[dir];
-    const int64_t cross = int64_t{x} * ny - int64_t{nx} * y;
+    if (len >= room) {
+      pixels_read_ += reads;
+      return false;
+    }
+    codes[len++] = static_cast<uint8_t>(dir);
+    const int du = kChainDu[dir], dv = kChainDv[dir];
+    const int32_t cross = x * dv - du * y;  // x * (y + dv) - (x + du) * y
     a2 += cross;
-    mx6 += (x + nx) * cross;
-    my6 += (y + ny) * cross;
+    mx6 += (2 * x + du) * cross;
+    my6 += (2 * y + dv) * cross;
     sum_x += x;
     sum_y += y;
-    x = nx;
-    y = ny;
-    u += kChainDu[dir];
-    v += kChainDv[dir];
+    x += du;
+    y += dv;
+    u += du;
+    v += dv;
     u_min = std::min(u_min, u);
     u_max = std::max(u_max, u);
     v_min = std::min(v_min, v);
     v_max = std::max(v_max, v);
-    (dir & 1) ? ++n_odd : ++n_even;
+    n_odd += dir & 1;
     if (prev_dir >= 0 && prev_dir != dir) ++n_corner;
     prev_dir = dir;
     // Next search starts at the background pixel beside the one we came from.
     search = (dir & 1) ? (dir + 6) & 7 : (dir + 7) & 7;
   }
+  pixels_read_ += reads;
+  const int n_even = static_cast<int>(len) - n_odd;
   chain_used_ += len;
   out.chain_length = len;
   out.u_min = static_cast<int16_t>(u_min);

@@ -129,6 +129,7 @@ class RegionSetBase {
 template <size_t kMaxRegions, size_t kMaxChainCodes>
 class RegionSet : public RegionSetBase {
   static_assert(kMaxRegions > 0 && kMaxChainCodes > 0);
+  static_assert(kMaxChainCodes <= (1u << 19), "Trace sums 4096 px offsets in 32 bits");
 
  public:
   // chain_ is scratch written before it is read (the base tracks its fill); zeroing it per

@@ -201,29 +201,22 @@ Status BallFinder::Find(const YuyvImage& image, const ColorLut& lut, const Predi
   }
   stats.attention_samples = attention_reads;
 
-  // 2. Scanlines, row-major: a seed at the first ball sample of every run along a row.
-  const uint8_t* data = image.data;
-  const int stride = image.stride_bytes;
-  const ChromaBox box = config_.ball_box;
-  const uint8_t* row = data;
-  int row_v = 0;
-  bool in_run = false;
+  // 2. Scanlines, row-major: a seed at the first ball sample of every run along a row. The chroma
+  //    box rejects most samples before the table is read.
+  const PairChromaTest box(config_.ball_box);
+  bool in_run = false;  // the previous kept sample was ball
   // A fresh frame is cold in cache: each sample hints the pixel kPrefetchRows below. Always, also
   // past the frame's end (a hint never faults; the address is formed as an integer): the bounds
   // test cost 3 of the 5 instructions the hint took per sample (~70 k per frame pair in QEMU).
-  const uintptr_t ahead = static_cast<uintptr_t>(kPrefetchRows) * static_cast<uintptr_t>(stride);
-  scan_->ForEachSample(
-      [&](int v) {
-        row = data + v * stride;
-        row_v = v;
-      },
-      [&](int u, bool restart) {
-        const uint8_t* pair = row + (u & ~1) * 2;
-        __builtin_prefetch(
-            reinterpret_cast<const void*>(reinterpret_cast<uintptr_t>(pair) + ahead));
-        const bool ball = box.Contains(pair[1], pair[3]) &&
-                          lut.Classify(pair[(u & 1) * 2], pair[1], pair[3]) == ColorClass::kBall;
-        if (ball && (restart || !in_run)) Seed(image, lut, u, row_v, stats);
+  const uintptr_t ahead =
+      static_cast<uintptr_t>(kPrefetchRows) * static_cast<uintptr_t>(image.stride_bytes);
+  scan_->ForEachKeptPair(
+      image.data, image.stride_bytes, ahead, [&box](uint32_t w) { return box.Holds(w); },
+      [&](int u, int v, uint32_t w, bool follows) {
+        const auto y = static_cast<uint8_t>(w >> ((u & 1) * 16));
+        const bool ball = lut.Classify(y, static_cast<uint8_t>(w >> 8),
+                                       static_cast<uint8_t>(w >> 24)) == ColorClass::kBall;
+        if (ball && !(follows && in_run)) Seed(image, lut, u, v, stats);
         in_run = ball;
       });
   stats.scan_pixels = scan_->pixel_count();

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <span>
 
 #include "core/common/status.h"
@@ -125,6 +126,45 @@ class ScanlineTableBase {
         u += d[k];
         sample(u, restart);
         restart = false;
+      }
+    }
+  }
+
+  /// The front end's hot loop over a YUYV frame: for every sample, the 4 bytes of its pixel pair
+  /// (Y0 U Y1 V, read as one little-endian word) go to keep(word); for the kept ones
+  /// hit(u, v, word, follows) is called, `follows` being true when the sample before it in the same
+  /// row (no escape between) was kept too. No per-sample state is written for the samples that are
+  /// not kept (most of them), which is what makes this loop cheaper than ForEachSample. Each sample
+  /// also hints the cache at `prefetch_bytes` beyond its pair (a hint never faults).
+  template <typename KeepFn, typename HitFn>
+  void ForEachKeptPair(const uint8_t* data, int stride, uintptr_t prefetch_bytes, KeepFn&& keep,
+                       HitFn&& hit) const {
+    static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "pair word is read little-endian");
+    for (int v = 0; v < height_; ++v) {
+      const uint8_t* p = delta_ + row_start_[v];
+      const uint8_t* const end = delta_ + row_start_[v + 1];
+      if (p == end) continue;
+      const uint8_t* const row = data + static_cast<ptrdiff_t>(v) * stride;
+      // p: the entry after the current sample's; kept: p of the last kept sample of this row.
+      const uint8_t* kept = nullptr;
+      int u = row_first_u_[v];
+      for (++p;;) {
+        const uint8_t* pair = row + (u >> 1) * 4;
+        __builtin_prefetch(
+            reinterpret_cast<const void*>(reinterpret_cast<uintptr_t>(pair) + prefetch_bytes));
+        uint32_t word;
+        std::memcpy(&word, pair, sizeof word);
+        if (__builtin_expect(keep(word), 0)) {
+          hit(u, v, word, kept + 1 == p);
+          kept = p;
+        }
+        if (p == end) break;
+        uint32_t step = *p++;
+        while (step == 0) {  // escape (gap > 255 px); AppendRow puts a sample after every one
+          u += 255;
+          step = *p++;
+        }
+        u += static_cast<int>(step);
       }
     }
   }
