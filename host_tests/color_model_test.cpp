@@ -165,5 +165,74 @@ TEST(ColorModelTest, InvalidModelsAreRefusedAndLeaveTheTable) {
   }
 }
 
+TEST(ColorModelTest, BallRowsUpdatedInStepsMatchAFreshTableAndKeepAVenueTablesOtherClasses) {
+  // A table built from one model, updated to another a few rows at a time, equals the table built
+  // from the other; the boxes of the steps unite to its Bounds.
+  BallColorModel from, to;
+  from.hue_min_deg = 95.0f;
+  to.hue_max_deg = 165.0f;
+  to.y_min = 40;
+  auto table = std::make_unique<ColorLut>();
+  auto fresh = std::make_unique<ColorLut>();
+  ASSERT_TRUE(BuildLut(from, *table).ok());
+  ASSERT_TRUE(BuildLut(to, *fresh).ok());
+  ChromaBox box;
+  box.empty = true;
+  for (int first = 0; first < 64; first += 3) {
+    ChromaBox rows;
+    ASSERT_TRUE(UpdateBallRows(to, *table, first, std::min(64, first + 3), rows).ok());
+    const ChromaBox want =
+        fresh->Bounds(ColorClass::kBall, static_cast<uint32_t>(first),
+                      static_cast<uint32_t>(std::min(64, first + 3)));
+    ASSERT_EQ(rows.empty, want.empty) << first;
+    if (!want.empty) {
+      EXPECT_EQ(rows.u_min, want.u_min);
+      EXPECT_EQ(rows.u_max, want.u_max);
+      EXPECT_EQ(rows.v_min, want.v_min);
+      EXPECT_EQ(rows.v_max, want.v_max);
+    }
+    box = Union(box, rows);
+  }
+  EXPECT_EQ(table->Id(), fresh->Id());
+  const ChromaBox all = fresh->Bounds(ColorClass::kBall);
+  EXPECT_EQ(box.u_min, all.u_min);
+  EXPECT_EQ(box.u_max, all.u_max);
+  EXPECT_EQ(box.v_min, all.v_min);
+  EXPECT_EQ(box.v_max, all.v_max);
+
+  // A venue table (every non-ball cell "line" here, unlike the built-in rule): its non-ball cells
+  // stay, its ball cells the model drops get the built-in background class.
+  auto venue = std::make_unique<ColorLut>();
+  venue->Fill(ColorClass::kLine);
+  uint32_t dropped = 0;
+  for (uint32_t i = 0; i < ColorLut::kEntries; ++i) {
+    if (fresh->at(i) == ColorClass::kBall) venue->Set(i, ColorClass::kBall);
+  }
+  BallColorModel narrow;
+  narrow.hue_min_deg = 125.0f;
+  ChromaBox rows;
+  ASSERT_TRUE(UpdateBallRows(narrow, *venue, 0, 64, rows).ok());
+  auto narrow_fresh = std::make_unique<ColorLut>();
+  ASSERT_TRUE(BuildLut(narrow, *narrow_fresh).ok());
+  for (uint32_t i = 0; i < ColorLut::kEntries; ++i) {
+    const bool ball = narrow_fresh->at(i) == ColorClass::kBall;
+    if (ball) {
+      ASSERT_EQ(venue->at(i), ColorClass::kBall) << i;
+    } else if (fresh->at(i) == ColorClass::kBall) {
+      ASSERT_EQ(venue->at(i), narrow_fresh->at(i)) << i;  // the built-in background class
+      ++dropped;
+    } else {
+      ASSERT_EQ(venue->at(i), ColorClass::kLine) << i;
+    }
+  }
+  EXPECT_GT(dropped, 100u);
+  EXPECT_EQ(UpdateBallRows(narrow, *venue, 60, 65, rows).code(), StatusCode::kInvalidArgument);
+  BallColorModel bad;
+  bad.y_min = 255;
+  const uint32_t before = venue->Id();
+  EXPECT_EQ(UpdateBallRows(bad, *venue, 0, 4, rows).code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(venue->Id(), before);
+}
+
 }  // namespace
 }  // namespace bv

@@ -67,9 +67,8 @@ void ColorAdapter::Step() {
     const int end = next_row_ + config_.rows_per_frame < (1 << ColorLut::kUBits)
                         ? next_row_ + config_.rows_per_frame
                         : (1 << ColorLut::kUBits);
-    BuildLutRows(pending_, *table_, next_row_, end).IgnoreError();  // validated at the refit
-    const ChromaBox rows = table_->Bounds(ColorClass::kBall, static_cast<uint32_t>(next_row_),
-                                          static_cast<uint32_t>(end));
+    ChromaBox rows;
+    UpdateBallRows(pending_, *table_, next_row_, end, rows).IgnoreError();  // validated at refit
     building_box_ = next_row_ == 0 ? rows : Union(building_box_, rows);
     next_row_ = end < (1 << ColorLut::kUBits) ? end : -1;
     if (next_row_ < 0) {

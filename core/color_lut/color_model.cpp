@@ -85,15 +85,12 @@ ColorClass BackgroundClass(uint8_t y, uint8_t u, uint8_t v) {
   return ColorClass::kUnknown;
 }
 
-Status BuildLut(const BallColorModel& m, ColorLut& out) {
-  return BuildLutRows(m, out, 0, 1 << ColorLut::kUBits);
-}
-
-Status BuildLutRows(const BallColorModel& m, ColorLut& out, int u_first, int u_end) {
-  BV_TRY(ValidateBallColorModel(m));
-  if (u_first < 0 || u_end > (1 << ColorLut::kUBits) || u_first > u_end) {
-    return Status(StatusCode::kInvalidArgument, "colour model: U rows outside the table");
-  }
+namespace {
+// fn(index, ball) for every cell with U index in [u_first, u_end): a cell is ball when at least
+// half of 8 colours spread over it are in the model, so the table's boundary follows the model's,
+// not the cell centres'. The model must be valid.
+template <typename Fn>
+void ForEachCellVote(const BallColorModel& m, int u_first, int u_end, Fn&& fn) {
   const BallColorTest p(m);
   constexpr int kYCells = 1 << ColorLut::kYBits, kCCells = 1 << ColorLut::kUBits;
   constexpr int kYStep = 1 << (8 - ColorLut::kYBits), kCStep = 1 << (8 - ColorLut::kUBits);
@@ -131,12 +128,57 @@ Status BuildLutRows(const BallColorModel& m, ColorLut& out, int u_first, int u_e
             for (int k = 0; k < 4; ++k) votes += hue_in[k] && c2[k] >= lo && c2[k] <= hi;
           }
         }
-        uint8_t yc, uc, vc;
-        ColorLut::CellCenter(index, yc, uc, vc);
-        out.Set(index, votes >= 4 ? ColorClass::kBall : BackgroundClass(yc, uc, vc));
+        fn(index, votes >= 4);
       }
     }
   }
+}
+
+ColorClass BackgroundClassOf(uint32_t index) {
+  uint8_t yc, uc, vc;
+  ColorLut::CellCenter(index, yc, uc, vc);
+  return BackgroundClass(yc, uc, vc);
+}
+}  // namespace
+
+Status BuildLut(const BallColorModel& m, ColorLut& out) {
+  BV_TRY(ValidateBallColorModel(m));
+  ForEachCellVote(m, 0, 1 << ColorLut::kUBits, [&out](uint32_t index, bool ball) {
+    out.Set(index, ball ? ColorClass::kBall : BackgroundClassOf(index));
+  });
+  return Status::Ok();
+}
+
+Status UpdateBallRows(const BallColorModel& m, ColorLut& table, int u_first, int u_end,
+                      ChromaBox& ball_box) {
+  BV_TRY(ValidateBallColorModel(m));
+  if (u_first < 0 || u_end > (1 << ColorLut::kUBits) || u_first > u_end) {
+    return Status(StatusCode::kInvalidArgument, "colour model: U rows outside the table");
+  }
+  constexpr uint32_t kCMask = (1u << ColorLut::kUBits) - 1;
+  uint32_t umin = kCMask + 1, umax = 0, vmin = kCMask + 1, vmax = 0;
+  ForEachCellVote(m, u_first, u_end, [&](uint32_t index, bool ball) {
+    if (ball) {
+      table.Set(index, ColorClass::kBall);
+      const uint32_t uc = (index >> ColorLut::kVBits) & kCMask, vc = index & kCMask;
+      umin = uc < umin ? uc : umin;
+      umax = uc > umax ? uc : umax;
+      vmin = vc < vmin ? vc : vmin;
+      vmax = vc > vmax ? vc : vmax;
+    } else if (table.at(index) == ColorClass::kBall) {
+      table.Set(index, BackgroundClassOf(index));
+    }
+  });
+  ball_box = ChromaBox{};
+  if (umin > umax) {
+    ball_box.empty = true;
+    return Status::Ok();
+  }
+  constexpr int kShift = 8 - ColorLut::kUBits;  // a cell covers 2^kShift chroma values
+  ball_box.u_min = static_cast<uint8_t>(umin << kShift);
+  ball_box.u_max = static_cast<uint8_t>(((umax + 1) << kShift) - 1);
+  ball_box.v_min = static_cast<uint8_t>(vmin << kShift);
+  ball_box.v_max = static_cast<uint8_t>(((vmax + 1) << kShift) - 1);
   return Status::Ok();
 }
 
