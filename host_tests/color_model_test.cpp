@@ -181,9 +181,8 @@ TEST(ColorModelTest, BallRowsUpdatedInStepsMatchAFreshTableAndKeepAVenueTablesOt
   for (int first = 0; first < 64; first += 3) {
     ChromaBox rows;
     ASSERT_TRUE(UpdateBallRows(to, *table, first, std::min(64, first + 3), rows).ok());
-    const ChromaBox want =
-        fresh->Bounds(ColorClass::kBall, static_cast<uint32_t>(first),
-                      static_cast<uint32_t>(std::min(64, first + 3)));
+    const ChromaBox want = fresh->Bounds(ColorClass::kBall, static_cast<uint32_t>(first),
+                                         static_cast<uint32_t>(std::min(64, first + 3)));
     ASSERT_EQ(rows.empty, want.empty) << first;
     if (!want.empty) {
       EXPECT_EQ(rows.u_min, want.u_min);

@@ -196,6 +196,43 @@ TEST(ContourTest, EachRegionTracedOnceWhateverTheSeeds) {
   EXPECT_FLOAT_EQ(rs->regions()[0].area_px, 60.0f * 60.0f - 30.0f * 45.0f);
 }
 
+TEST(ContourTest, SeedsInAnyOrderFindTheirContourWhereverTheLastWalkStopped) {
+  // A ring (one outer contour, one hole) with a disc in its hole. Seeds come down the rows, then
+  // up, then at random, twice: every check walks on from where the last hit on that contour was
+  // (wrapping past the chain's end); each contour is traced once, and the second pass traces none.
+  Frame f;
+  f.Draw([](int u, int v) {
+    const float d = std::hypot(u - 300.0f, v - 240.0f);
+    return (d <= 80.0f && d >= 40.0f) || d <= 10.0f;
+  });
+  std::vector<std::pair<int, int>> seeds;
+  for (int v = 165; v <= 315; v += 3) seeds.push_back({370, v});
+  for (int v = 315; v >= 165; v -= 3) seeds.push_back({375, v});
+  uint32_t x = 99;
+  for (int i = 0; i < 300; ++i) {
+    x = x * 1664525u + 1013904223u;
+    seeds.push_back({220 + static_cast<int>(x >> 8) % 161, 160 + static_cast<int>(x >> 20) % 161});
+  }
+  auto rs = std::make_unique<Set32>();
+  int new_regions = 0;
+  for (const auto& [u, v] : seeds)
+    new_regions +=
+        rs->TraceSeed(f.view(), Lut(), ColorClass::kBall, u, v) == SeedOutcome::kNewRegion;
+  ASSERT_EQ(rs->regions().size(), 3u);  // the ring, its hole, the disc
+  EXPECT_EQ(new_regions, 2);
+  int holes = 0;
+  for (const Region& r : rs->regions()) holes += r.hole;
+  EXPECT_EQ(holes, 1);
+  int traced = 0;
+  for (const auto& [u, v] : seeds) {
+    const SeedOutcome o = rs->TraceSeed(f.view(), Lut(), ColorClass::kBall, u, v);
+    ASSERT_TRUE(o == SeedOutcome::kAlreadyTraced || o == SeedOutcome::kNotInClass) << u << "," << v;
+    traced += o == SeedOutcome::kAlreadyTraced;
+  }
+  EXPECT_GT(traced, 100);
+  EXPECT_EQ(rs->regions().size(), 3u);
+}
+
 TEST(ContourTest, HoleIsTracedOnceAndFilled) {
   const float cx = 320, cy = 240;
   Frame f;

@@ -15,17 +15,30 @@ void RegionSetBase::Clear() {
   regions_exhausted_ = false;
 }
 
-bool RegionSetBase::OnContour(const Region& r, int u, int v) const {
+bool RegionSetBase::OnContour(Region& r, int u, int v) {
   if (u < r.u_min || u > r.u_max || v < r.v_min || v > r.v_max) return false;
-  int pu = r.start_u, pv = r.start_v;
-  if (pu == u && pv == v) return true;
+  // A closed contour visits the same pixels wherever its walk starts: start where the last hit on
+  // it was, as the next seed in scan order usually lies a few steps further along (down its left
+  // side). Same answer as a walk from the start pixel, a fraction of the steps on a large region
+  // that many scanline rows cross.
+  const int32_t target = PackedPixel(u, v);
+  int32_t pos = r.walk_pos;
+  if (pos == target) return true;
   const uint8_t* codes = chain_ + r.chain_offset;
-  for (uint32_t i = 0; i < r.chain_length; ++i) {
-    pu += kChainDu[codes[i]];
-    pv += kChainDv[codes[i]];
-    if (pu == u && pv == v) return true;
-  }
-  return false;
+  const uint32_t len = r.chain_length, from = r.walk_index;
+  // Codes [from, len) end at the start pixel, [0, from) back where the walk began.
+  auto walk = [&](uint32_t first, uint32_t end) {
+    for (uint32_t i = first; i < end; ++i) {
+      pos += kChainDp[codes[i]];
+      if (pos == target) {
+        r.walk_index = static_cast<uint16_t>(i + 1 < len ? i + 1 : 0);
+        r.walk_pos = pos;
+        return true;
+      }
+    }
+    return false;
+  };
+  return walk(from, len) || walk(0, from);
 }
 
 namespace {
@@ -71,7 +84,8 @@ bool RegionSetBase::Trace(const YuyvImage& img, const ColorLut& lut, ColorClass 
   out = Region{};
   out.start_u = static_cast<int16_t>(u0);
   out.start_v = static_cast<int16_t>(v0);
-  out.chain_offset = static_cast<uint32_t>(chain_used_);
+  out.chain_offset = static_cast<uint16_t>(chain_used_);
+  out.walk_pos = PackedPixel(u0, v0);
   // Locals, not members: the chain is written through a uint8_t pointer, which may alias any
   // member, and every member read in the loop would be reloaded after each write.
   const YuyvImage image = img;
@@ -131,7 +145,7 @@ bool RegionSetBase::Trace(const YuyvImage& img, const ColorLut& lut, ColorClass 
   pixels_read_ += reads;
   const int n_even = static_cast<int>(len) - n_odd;
   chain_used_ += len;
-  out.chain_length = len;
+  out.chain_length = static_cast<uint16_t>(len);
   out.u_min = static_cast<int16_t>(u_min);
   out.u_max = static_cast<int16_t>(u_max);
   out.v_min = static_cast<int16_t>(v_min);

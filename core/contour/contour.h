@@ -22,8 +22,12 @@ struct Region {
   // 0: centre, area and radius are the region's own. Otherwise they are the circle fitted to the
   // region's outline (SetCircle), supported in this many of 16 sectors around its centre.
   uint8_t arc_sectors = 0;
-  uint32_t chain_offset = 0;  // codes in the set's chain pool
-  uint32_t chain_length = 0;
+  uint16_t chain_offset = 0;  // codes in the set's chain pool
+  uint16_t chain_length = 0;
+  // Where the last seed check found a pixel on this contour (code index, packed position): the
+  // next check starts there (RegionSetBase::OnContour).
+  uint16_t walk_index = 0;
+  int32_t walk_pos = 0;
   float polygon_area_px = 0;   // area enclosed by the boundary-pixel-centre polygon
   float area_px = 0;           // pixel count incl. holes: polygon + length/2 + 1 (Pick)
   float perimeter_px = 0;      // Vossepoel-Smeulders length estimate of the chain
@@ -64,6 +68,11 @@ struct CircleSearch {
 /// Freeman directions: 0 = +u, 2 = -v (up), 4 = -u, 6 = +v; odd codes are diagonals.
 inline constexpr int kChainDu[8] = {1, 1, 0, -1, -1, -1, 0, 1};
 inline constexpr int kChainDv[8] = {0, -1, -1, -1, 0, 1, 1, 1};
+/// A pixel as one integer, v * kPackedRow + u (u < 4096), and the directions' steps in it.
+inline constexpr int32_t kPackedRow = 8192;
+inline constexpr int32_t PackedPixel(int u, int v) { return v * kPackedRow + u; }
+inline constexpr int32_t kChainDp[8] = {1,  1 - kPackedRow,  -kPackedRow, -1 - kPackedRow,
+                                        -1, -1 + kPackedRow, kPackedRow,  1 + kPackedRow};
 
 enum class SeedOutcome : uint8_t {
   kNewRegion,      // traced a new outer contour (regions().back())
@@ -108,7 +117,7 @@ class RegionSetBase {
       : regions_(regions), capacity_(capacity), chain_(chain), chain_capacity_(chain_capacity) {}
 
  private:
-  bool OnContour(const Region& r, int u, int v) const;
+  bool OnContour(Region& r, int u, int v);
   // Traces from a boundary pixel; false when the chain pool overflows.
   bool Trace(const YuyvImage& img, const ColorLut& lut, ColorClass cls, int u, int v, Region& out);
 
@@ -129,7 +138,7 @@ class RegionSetBase {
 template <size_t kMaxRegions, size_t kMaxChainCodes>
 class RegionSet : public RegionSetBase {
   static_assert(kMaxRegions > 0 && kMaxChainCodes > 0);
-  static_assert(kMaxChainCodes <= (1u << 19), "Trace sums 4096 px offsets in 32 bits");
+  static_assert(kMaxChainCodes <= 65535, "Region stores chain offsets and lengths in 16 bits");
 
  public:
   // chain_ is scratch written before it is read (the base tracks its fill); zeroing it per
