@@ -20,6 +20,10 @@ constexpr int kMinGoalRaysWithoutPose = 3;
 // A dark region inside a goal, behind its line by more than an obstacle centre's error, is the
 // goal's own (its net, the shade under the crossbar); the mouth is widened by a robot's radius.
 constexpr float kObstacleInGoalM = 0.1f, kObstacleGoalSideM = 0.3f;
+// Obstacles are what stands on the field: a footprint whose near edge stays farther than this
+// outside the field of play is a person, a wall or a chair in the border, where referees and team
+// members walk (a robot that overshoots a line after the ball stays within reach of it).
+constexpr float kObstacleOutsideM = 0.25f;
 
 // Robot frame to field frame for a pose (x, y) with heading h given as s = sin h, c = cos h:
 // robot +x is (sin h, -cos h) in the field, robot +y is (cos h, sin h).
@@ -207,7 +211,8 @@ void Pipeline::RefuseOffFieldObstacles() {
     RobotToField(e.x_m, e.y_m, s, c, o.x_m, o.y_m, fx, fy);
     const bool in_goal = std::fabs(fx) > 0.5f * f.length_m + kObstacleInGoalM &&
                          std::fabs(fy) < 0.5f * f.goal_width_m + kObstacleGoalSideM;
-    if (in_goal || !field_model_.Inside(fx, fy, f.border_m + sigma)) {
+    const float margin = std::min(f.border_m, o.radius_m + kObstacleOutsideM) + sigma;
+    if (in_goal || !field_model_.Inside(fx, fy, margin)) {
       ++features_.obstacles_refused;
       continue;
     }

@@ -32,7 +32,7 @@ struct LocaliserConfig {
   int lost_after_bad_frames = 20;      // bad fits in a row: relocalise globally
   int evals_per_frame = 100;           // global search: at most this many poses per frame ...
   int search_points_per_frame = 1200;  // ... and this many line points scored (the cost)
-  float grid_m = 0.5f;                 // global search position grid
+  float grid_m = 1.0f;                 // global search position grid
   float coast_pos_mps = 0.5f;          // sigma growth while coasting without odometry
   float coast_heading_radps = 0.2f;
   float usable_sigma_m = 0.5f;      // beyond: pose not used for the in-field rule
