@@ -434,6 +434,32 @@ TEST_F(FeatureImageTest, LinePointsLieOnTheLineAndTheObstacleIsFound) {
   EXPECT_GT(f->lookups, 0u);
 }
 
+// A robot standing right behind a line (a circle around us, 0.2 m wide so that it spans several
+// samples as a line does farther out, its outer edge at the robot's foot): the rays see green, a
+// few white samples, then the robot. It is found all the same; the line is still seen on the rays
+// that miss the robot.
+TEST_F(FeatureImageTest, ARobotRightBehindALineIsFound) {
+  const double foot = std::hypot(kRobotX, kRobotY) - kRobotR;
+  Paint([foot](double gx, double gy) -> uint8_t {
+    const uint8_t robot_or_floor = Scene(gx, gy);
+    if (robot_or_floor == 20) return 20;
+    return std::fabs(std::hypot(gx, gy) - (foot - 0.1)) <= 0.1 ? 230 : kGreenY;
+  });
+  auto ex = std::make_unique<FieldFeatureExtractor>();
+  ASSERT_TRUE(ex->Init(scan_, cal_.omni, FieldFeatureConfig{}).ok());
+  auto f = std::make_unique<FieldFeatures>();
+  ASSERT_TRUE(ex->Extract(view(), *lut_, *f).ok());
+  ASSERT_EQ(f->obstacle_count, 1);
+  EXPECT_NEAR(f->obstacles[0].x_m, kRobotX, 0.15);
+  EXPECT_NEAR(f->obstacles[0].y_m, kRobotY, 0.15);
+  EXPECT_NEAR(f->obstacles[0].radius_m, kRobotR, 0.1);
+  ASSERT_GE(f->line_count, 20);
+  for (int i = 0; i < f->line_count; ++i) {
+    EXPECT_NEAR(std::hypot(f->lines[i].x_m, f->lines[i].y_m), foot - 0.1, 0.06);
+  }
+  EXPECT_EQ(f->goal_count, 0);
+}
+
 // A goal ahead: the goal line at x = 2.5 m, the goal's floor (carpet) 0.6 m deep behind it, then
 // the net (unclassified grey) up to the image edge within the mouth's angle (back and side nets);
 // beside the goal the carpet runs on. The same grey 2 m behind the line (the border's end) is no

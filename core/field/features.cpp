@@ -13,6 +13,8 @@ constexpr int kEdgeBisections = 4;      // ray spacing / 16 (0.35 deg with 64 ra
 constexpr float kEdgeProbeInsetPx = 3;  // probe this far beyond the foot, inside the obstacle
 // Goals: the carpet must end for this many samples (net, back of the goal) ...
 constexpr int kGoalTailSamples = 4;
+// A robot right behind a line: at most this many samples from the last green to its dark run.
+constexpr int kMaxLineFootGap = 6;
 // ... between 0.3 and 2 goal depths (+ 0.2 m) behind the last line (the goal line; an oblique
 // ray runs longer inside the goal); elsewhere it runs on for the border (1.5 m + in the MSL).
 constexpr float kGoalMinDepths = 0.3f, kGoalMaxDepths = 2.0f, kGoalDepthSlackM = 0.2f;
@@ -146,7 +148,9 @@ void FieldFeatureExtractor::ScanRay(const YuyvImage& img, const ColorLut& lut, i
   const float cs = static_cast<float>(q.cs_q14) * (1.0f / 16384.0f);  // no trigonometry per frame
   const float sn = static_cast<float>(q.sn_q14) * (1.0f / 16384.0f);
   int last_green = -10, white_start = -1, last_white = -10, green_before_white = -10;
-  int dark_start = -1, dark_count = 0, green_before_dark = -10;
+  int dark_start = -1, dark_count = 0;
+  bool line_foot = false;
+  float line_foot_r = -1.0f;  // a dark run right behind a line: foot, unless this ray sees a goal
   int tail_w0 = -1, tail_w1 = -1;  // first white run after the last green sample
   bool tail_closed = false;
   float break_r = -1.0f;  // image radius of the last short break in the carpet (a line)
@@ -172,7 +176,8 @@ void FieldFeatureExtractor::ScanRay(const YuyvImage& img, const ColorLut& lut, i
         if (goal.end >= 0 && ++green_run >= kCarpetResumes) goal = GoalWalk{};
         continue;
       }
-      if (white_start >= 0 && k - last_white <= 2 && white_start - green_before_white <= 2) {
+      if (white_start >= 0 && k - last_white <= 2 && white_start - green_before_white <= 2 &&
+          line_foot_r < 0.0f) {
         AddLinePoint(Mid(green_before_white, white_start), Mid(last_white, k), cs, sn, ray, out);
       }
       // A line, or one in shadow (unclassified): 1-3 samples off the carpet between green.
@@ -213,23 +218,25 @@ void FieldFeatureExtractor::ScanRay(const YuyvImage& img, const ColorLut& lut, i
         goal.end = last_green;
         goal.break_r = break_r;
       }
-      white_start = -1;
-      if (tail_w0 >= 0 && k - tail_w1 > 2) tail_closed = true;
       if (dark_start < 0) {
         dark_start = k;
-        green_before_dark = last_green;
+        // A dark run right behind a line (green, a few white samples, dark): a robot standing
+        // there, or a goal's net behind its line. Kept aside until the ray's goal evidence is in.
+        line_foot = white_start >= 0 && white_start - last_green <= 2 && k - last_white <= 2 &&
+                    k - last_green <= kMaxLineFootGap && last_green >= 0;
         dark_count = 0;
       }
+      white_start = -1;
+      if (tail_w0 >= 0 && k - tail_w1 > 2) tail_closed = true;
       ++dark_count;
-      if (dark_count >= config_.min_obstacle_samples && dark_start - green_before_dark <= 2 &&
-          green_before_dark >= 0) {
-        const float r = Mid(green_before_dark, dark_start);
-        float x, y;
-        if (Ground(scan_.center_u + r * cs, scan_.center_v + r * sn, x, y) &&
-            std::hypot(x, y) <= config_.max_obstacle_range_m) {
-          hits_[ray].foot_r = r;
-          hits_[ray].foot_m = std::hypot(x, y);
-        }
+      if (dark_count < config_.min_obstacle_samples) continue;
+      if (line_foot) {
+        if (line_foot_r < 0.0f) line_foot_r = Mid(last_white, dark_start);
+        continue;
+      }
+      if (dark_start - last_green <= 2 && last_green >= 0) {
+        // The nearest foot on this ray; nothing beyond it is trusted (it hides the floor).
+        SetFoot(ray, line_foot_r >= 0.0f ? line_foot_r : Mid(last_green, dark_start), cs, sn);
         return;
       }
     } else {
@@ -246,6 +253,16 @@ void FieldFeatureExtractor::ScanRay(const YuyvImage& img, const ColorLut& lut, i
     goal.post_w1 = tail_w1;
   }
   GoalEvidence(ray, goal, cs, sn);
+  if (line_foot_r >= 0.0f && hits_[ray].goal_cm == 0) SetFoot(ray, line_foot_r, cs, sn);
+}
+
+void FieldFeatureExtractor::SetFoot(int ray, float r, float cs, float sn) {
+  float x, y;
+  if (Ground(scan_.center_u + r * cs, scan_.center_v + r * sn, x, y) &&
+      std::hypot(x, y) <= config_.max_obstacle_range_m) {
+    hits_[ray].foot_r = r;
+    hits_[ray].foot_m = std::hypot(x, y);
+  }
 }
 
 // Between rays (edge bisection): the same rounding as a ray's samples.
