@@ -14,7 +14,8 @@ constexpr int kRefinePerFrame = 2;  // global search candidates refined per fram
 // The coarse grid is scored with a wide error function (c = 2 grid steps): a grid point 0.25 m
 // from the true pose must still score better than a wrong pose that happens to sit on lines.
 constexpr float kSearchCPerGrid = 2.0f;
-constexpr float kDistinctM = 1.0f;   // candidates closer than this (same heading) are one
+// Candidates closer than this many grid steps (same heading) are one: a basin spans a few.
+constexpr float kDistinctPerGrid = 2.0f;
 constexpr int kHeadingBins = 45;     // 2 deg bins over 90 deg
 constexpr float kMinSigmaM = 0.02f;  // floor: calibration and line-centre error
 constexpr float kMinSigmaRad = 0.005f;
@@ -232,7 +233,8 @@ void Localiser::StartSearch(const FieldFeatures& f) {
 void Localiser::Keep(const Candidate& c) {
   int slot = -1;
   for (int k = 0; k < best_count_; ++k) {
-    if (best_[k].h == c.h && std::hypot(best_[k].x - c.x, best_[k].y - c.y) < kDistinctM) {
+    if (best_[k].h == c.h &&
+        std::hypot(best_[k].x - c.x, best_[k].y - c.y) < kDistinctPerGrid * config_.grid_m) {
       if (best_[k].score <= c.score) return;
       slot = k;
       break;
