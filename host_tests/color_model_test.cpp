@@ -180,7 +180,7 @@ TEST(ColorModelTest, BallRowsUpdatedInStepsMatchAFreshTableAndKeepAVenueTablesOt
   box.empty = true;
   for (int first = 0; first < 64; first += 3) {
     ChromaBox rows;
-    ASSERT_TRUE(UpdateBallRows(to, *table, first, std::min(64, first + 3), rows).ok());
+    ASSERT_TRUE(UpdateBallRows(from, to, *table, first, std::min(64, first + 3), rows).ok());
     const ChromaBox want = fresh->Bounds(ColorClass::kBall, static_cast<uint32_t>(first),
                                          static_cast<uint32_t>(std::min(64, first + 3)));
     ASSERT_EQ(rows.empty, want.empty) << first;
@@ -210,7 +210,7 @@ TEST(ColorModelTest, BallRowsUpdatedInStepsMatchAFreshTableAndKeepAVenueTablesOt
   BallColorModel narrow;
   narrow.hue_min_deg = 125.0f;
   ChromaBox rows;
-  ASSERT_TRUE(UpdateBallRows(narrow, *venue, 0, 64, rows).ok());
+  ASSERT_TRUE(UpdateBallRows(to, narrow, *venue, 0, 64, rows).ok());
   auto narrow_fresh = std::make_unique<ColorLut>();
   ASSERT_TRUE(BuildLut(narrow, *narrow_fresh).ok());
   for (uint32_t i = 0; i < ColorLut::kEntries; ++i) {
@@ -225,11 +225,11 @@ TEST(ColorModelTest, BallRowsUpdatedInStepsMatchAFreshTableAndKeepAVenueTablesOt
     }
   }
   EXPECT_GT(dropped, 100u);
-  EXPECT_EQ(UpdateBallRows(narrow, *venue, 60, 65, rows).code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(UpdateBallRows(to, narrow, *venue, 60, 65, rows).code(), StatusCode::kInvalidArgument);
   BallColorModel bad;
   bad.y_min = 255;
   const uint32_t before = venue->Id();
-  EXPECT_EQ(UpdateBallRows(bad, *venue, 0, 4, rows).code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(UpdateBallRows(to, bad, *venue, 0, 4, rows).code(), StatusCode::kInvalidArgument);
   EXPECT_EQ(venue->Id(), before);
 }
 

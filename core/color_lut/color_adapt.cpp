@@ -68,7 +68,8 @@ void ColorAdapter::Step() {
                         ? next_row_ + config_.rows_per_frame
                         : (1 << ColorLut::kUBits);
     ChromaBox rows;
-    UpdateBallRows(pending_, *table_, next_row_, end, rows).IgnoreError();  // validated at refit
+    // Rows not yet rebuilt still hold model_'s ball class.
+    UpdateBallRows(model_, pending_, *table_, next_row_, end, rows).IgnoreError();  // validated
     building_box_ = next_row_ == 0 ? rows : Union(building_box_, rows);
     next_row_ = end < (1 << ColorLut::kUBits) ? end : -1;
     if (next_row_ < 0) {

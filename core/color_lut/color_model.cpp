@@ -88,10 +88,14 @@ ColorClass BackgroundClass(uint8_t y, uint8_t u, uint8_t v) {
 namespace {
 // fn(index, ball) for every cell with U index in [u_first, u_end): a cell is ball when at least
 // half of 8 colours spread over it are in the model, so the table's boundary follows the model's,
-// not the cell centres'. The model must be valid.
+// not the cell centres'. With `before` (the model the cells were built from), the chroma columns
+// that neither model can make ball in any luma are skipped: no cell there changes. The models
+// must be valid.
 template <typename Fn>
-void ForEachCellVote(const BallColorModel& m, int u_first, int u_end, Fn&& fn) {
+void ForEachCellVote(const BallColorModel& m, const BallColorModel* before, int u_first, int u_end,
+                     Fn&& fn) {
   const BallColorTest p(m);
+  const BallColorTest q(before != nullptr ? *before : m);
   constexpr int kYCells = 1 << ColorLut::kYBits, kCCells = 1 << ColorLut::kUBits;
   constexpr int kYStep = 1 << (8 - ColorLut::kYBits), kCStep = 1 << (8 - ColorLut::kUBits);
   static_assert(ColorLut::kUBits == ColorLut::kVBits);
@@ -109,20 +113,23 @@ void ForEachCellVote(const BallColorModel& m, int u_first, int u_end, Fn&& fn) {
       // The cell's 4 chroma samples: in the hue window or not, and their squared chroma.
       float c2[4];
       bool hue_in[4];
-      int any = 0;
+      int any = 0, any_before = 0;
       for (int k = 0; k < 4; ++k) {
         const float du = static_cast<float>(cu * kCStep + kCStep / 4 + (k >> 1) * kCStep / 2 - 128);
         const float dv = static_cast<float>(cv * kCStep + kCStep / 4 + (k & 1) * kCStep / 2 - 128);
         hue_in[k] = p.InWindow(du, dv);
         c2[k] = du * du + dv * dv;
         any += hue_in[k];
+        if (before != nullptr) any_before += q.InWindow(du, dv);
       }
+      // At least 4 of 8 votes needs 2 of the 4 chroma samples in the window (below).
+      if (before != nullptr && any < 2 && any_before < 2) continue;
       for (int cy = 0; cy < kYCells; ++cy) {
         const uint32_t index = static_cast<uint32_t>(cy) << (ColorLut::kUBits + ColorLut::kVBits) |
                                static_cast<uint32_t>(cu) << ColorLut::kVBits |
                                static_cast<uint32_t>(cv);
         int votes = 0;
-        if (any >= 2) {  // at least 4 of 8 votes needs 2 of the 4 chroma samples in the window
+        if (any >= 2) {
           for (int a = 0; a < 2; ++a) {
             const float lo = lo2[2 * cy + a], hi = hi2[2 * cy + a];
             for (int k = 0; k < 4; ++k) votes += hue_in[k] && c2[k] >= lo && c2[k] <= hi;
@@ -143,21 +150,22 @@ ColorClass BackgroundClassOf(uint32_t index) {
 
 Status BuildLut(const BallColorModel& m, ColorLut& out) {
   BV_TRY(ValidateBallColorModel(m));
-  ForEachCellVote(m, 0, 1 << ColorLut::kUBits, [&out](uint32_t index, bool ball) {
+  ForEachCellVote(m, nullptr, 0, 1 << ColorLut::kUBits, [&out](uint32_t index, bool ball) {
     out.Set(index, ball ? ColorClass::kBall : BackgroundClassOf(index));
   });
   return Status::Ok();
 }
 
-Status UpdateBallRows(const BallColorModel& m, ColorLut& table, int u_first, int u_end,
-                      ChromaBox& ball_box) {
+Status UpdateBallRows(const BallColorModel& from, const BallColorModel& m, ColorLut& table,
+                      int u_first, int u_end, ChromaBox& ball_box) {
+  BV_TRY(ValidateBallColorModel(from));
   BV_TRY(ValidateBallColorModel(m));
   if (u_first < 0 || u_end > (1 << ColorLut::kUBits) || u_first > u_end) {
     return Status(StatusCode::kInvalidArgument, "colour model: U rows outside the table");
   }
   constexpr uint32_t kCMask = (1u << ColorLut::kUBits) - 1;
   uint32_t umin = kCMask + 1, umax = 0, vmin = kCMask + 1, vmax = 0;
-  ForEachCellVote(m, u_first, u_end, [&](uint32_t index, bool ball) {
+  ForEachCellVote(m, &from, u_first, u_end, [&](uint32_t index, bool ball) {
     if (ball) {
       table.Set(index, ColorClass::kBall);
       const uint32_t uc = (index >> ColorLut::kVBits) & kCMask, vc = index & kCMask;

@@ -63,12 +63,13 @@ ColorClass BackgroundClass(uint8_t y, uint8_t u, uint8_t v);
 /// Allocation-free: the device runs it at boot when it has no stored table, and after a teach.
 Status BuildLut(const BallColorModel& m, ColorLut& out);
 /// The ball class of the cells with U index in [u_first, u_end) only (of 64), for online
-/// adaptation: a few rows per frame, so no frame costs more than its share. A cell the model holds
-/// becomes ball; a ball cell it no longer holds gets the background class; every other cell keeps
-/// its class (a taught venue table's field and lines stay). `ball_box` receives the chroma box of
-/// the ball cells of these rows (as ColorLut::Bounds would). kInvalidArgument (table untouched)
-/// for an invalid model or rows outside the table.
-Status UpdateBallRows(const BallColorModel& m, ColorLut& table, int u_first, int u_end,
-                      ChromaBox& ball_box);
+/// adaptation: a few rows per frame, so no frame costs more than its share. The rows were built
+/// from model `from` (BuildLut or an earlier update); a cell model `m` holds becomes ball, a ball
+/// cell it no longer holds gets the background class, every other cell keeps its class (a taught
+/// venue table's field and lines stay). Chroma columns that neither model can make ball are not
+/// read. `ball_box` receives the chroma box of the ball cells of these rows (as ColorLut::Bounds
+/// would). kInvalidArgument (table untouched) for an invalid model or rows outside the table.
+Status UpdateBallRows(const BallColorModel& from, const BallColorModel& m, ColorLut& table,
+                      int u_first, int u_end, ChromaBox& ball_box);
 
 }  // namespace bv
