@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 namespace bv {
 namespace {
@@ -133,6 +134,31 @@ void ScanlineTableBase::Reset(int width, int height) {
   for (uint16_t& f : row_first_u_) f = 0;
 }
 
+namespace {
+// Escape entries a row can need: its width (<= 4096) over 255.
+constexpr int kMaxEscapesPerRow = 4096 / 255 + 1;
+}  // namespace
+
+uint16_t* ScanlineTableBase::RowBuffer(int& room) const {
+  const size_t first = (used_ + 1) / 2;  // the first word wholly past the written entries
+  room = first < word_count_ ? static_cast<int>(word_count_ - first) : 0;
+  return words_ + first;
+}
+
+Status ScanlineTableBase::AppendBufferedRow(int v, int m) {
+  int room = 0;
+  uint16_t* row = RowBuffer(room);
+  uint16_t* const end = words_ + (word_count_ - static_cast<size_t>(m));
+  // The row's entries (m samples and its escapes) are written from used_ on: they must stay below
+  // the columns still to be read.
+  if (m > room || used_ + static_cast<size_t>(m + kMaxEscapesPerRow) >
+                      2 * (word_count_ - static_cast<size_t>(m))) {
+    return Status(StatusCode::kResourceExhausted, "scanlines: more samples than the capacity");
+  }
+  std::memmove(end, row, static_cast<size_t>(m) * sizeof(uint16_t));
+  return AppendRow(v, end, m);
+}
+
 Status ScanlineTableBase::AppendRow(int v, const uint16_t* us, int n) {
   row_start_[v] = static_cast<uint16_t>(used_);
   row_first_u_[v] = n > 0 ? us[0] : 0;
@@ -176,9 +202,6 @@ struct Band {
   float from, to, step;
 };
 
-// Row buffer for the build (start-up only).
-constexpr int kMaxRowSamples = 2048;  // 4 KB .bss, start-up only
-uint16_t g_row[kMaxRowSamples];
 float g_feature_radii[OmniFeatureRays::kMaxRadii];  // start-up only
 
 }  // namespace
@@ -299,18 +322,18 @@ Status ScanlineTableBase::BuildOmni(const OmniScanConfig& c, int width, int heig
   for (int i = 0; i < c.features.rays; ++i) {
     if (!OmniFeatureRayBlocked(c, i)) feature_rays[n_feature_rays++] = MakeOmniRay(c, i);
   }
-  const auto add_feature_samples = [&](int v, int& n, bool& overflow) {
+  const auto add_feature_samples = [&](int v, uint16_t* row, int room, int& n, bool& overflow) {
     for (int i = 0; i < n_feature_rays && !overflow; ++i) {
       const OmniRayQ& q = feature_rays[i];
       for (int k = 0; k < n_radii; ++k) {
         int su, sv;
         OmniRayPixel(q, RadiusQ4(g_feature_radii[k]), su, sv);
         if (sv != v || su < 0 || su >= width) continue;
-        if (n >= kMaxRowSamples) {
+        if (n >= room) {
           overflow = true;
           return;
         }
-        g_row[n++] = static_cast<uint16_t>(su);
+        row[n++] = static_cast<uint16_t>(su);
       }
     }
   };
@@ -318,29 +341,30 @@ Status ScanlineTableBase::BuildOmni(const OmniScanConfig& c, int width, int heig
   width_ = width;
   height_ = height;
   for (int v = 0; v < height; ++v) {
-    int n = 0;
+    int n = 0, room = 0;
     bool overflow = false;
-    add_feature_samples(v, n, overflow);
+    uint16_t* const row = RowBuffer(room);
+    add_feature_samples(v, row, room, n, overflow);
     for_each_line([&](float cs, float sn, float r_start, float r_end) {
       const float va = c.center_v + r_start * sn, vb = c.center_v + r_end * sn;
       if (v < std::min(va, vb) - 1.0f || v > std::max(va, vb) + 1.0f) return;
       for_each_sample(r_start, r_end, [&](float r) {
         const int sv = static_cast<int>(std::floor(c.center_v + 0.5f + r * sn));
         if (sv == v) {
-          if (n >= kMaxRowSamples) {
+          if (n >= room) {
             overflow = true;
             return false;
           }
-          g_row[n++] = static_cast<uint16_t>(std::floor(c.center_u + 0.5f + r * cs));
+          row[n++] = static_cast<uint16_t>(std::floor(c.center_u + 0.5f + r * cs));
         }
         return !((sn > 0 && sv > v) || (sn < 0 && sv < v));
       });
     });
     if (overflow) {
       Reset(0, 0);
-      return Status(StatusCode::kResourceExhausted, "BuildOmni: row sample buffer overflow");
+      return Status(StatusCode::kResourceExhausted, "BuildOmni: more samples than the capacity");
     }
-    const Status st = AppendRow(v, g_row, SortUnique(g_row, n));
+    const Status st = AppendBufferedRow(v, SortUnique(row, n));
     if (!st.ok()) {
       Reset(0, 0);
       return st;
@@ -377,10 +401,11 @@ Status ScanlineTableBase::BuildPersp(const PerspScanConfig& c, int width, int he
   }
   width_ = width;
   height_ = height;
-  int row = 0;
+  int lattice_row = 0;
   int next = c.first_row;
   for (int v = 0; v < height; ++v) {
-    int n = 0;
+    int n = 0, room = 0;
+    uint16_t* const columns = RowBuffer(room);
     if (v == next && v <= last) {
       const float d = c.diameter.count > 0 ? c.diameter.At(static_cast<float>(v)) : 8.0f;
       int s = std::min(255, std::max(1, static_cast<int>(d * 0.8660f)));
@@ -390,17 +415,18 @@ Status ScanlineTableBase::BuildPersp(const PerspScanConfig& c, int width, int he
         if (BrickCoverRadius(s, h, s / 2) < d * 0.5f - 0.05f) break;
       }
       if (s == 1) h = 1;
-      for (int u = (row & 1) ? s / 2 : 0; u < width; u += s) {
-        if (n >= kMaxRowSamples) {
+      for (int u = (lattice_row & 1) ? s / 2 : 0; u < width; u += s) {
+        if (n >= room) {
           Reset(0, 0);
-          return Status(StatusCode::kResourceExhausted, "BuildPersp: row sample buffer overflow");
+          return Status(StatusCode::kResourceExhausted,
+                        "BuildPersp: more samples than the capacity");
         }
-        g_row[n++] = static_cast<uint16_t>(u);
+        columns[n++] = static_cast<uint16_t>(u);
       }
-      ++row;
+      ++lattice_row;
       next = v + h;
     }
-    const Status st = AppendRow(v, g_row, n);
+    const Status st = AppendBufferedRow(v, n);
     if (!st.ok()) {
       Reset(0, 0);
       return st;

@@ -170,15 +170,29 @@ class ScanlineTableBase {
   }
 
  protected:
-  ScanlineTableBase(uint8_t* storage, size_t capacity) : delta_(storage), capacity_(capacity) {}
+  // `words` holds `capacity` bytes of table (as uint16_t, so that the build can use the unwritten
+  // tail as its row buffer; the table itself is written through a byte pointer, which may alias
+  // it).
+  ScanlineTableBase(uint16_t* words, size_t capacity)
+      : delta_(reinterpret_cast<uint8_t*>(words)),
+        words_(words),
+        capacity_(capacity),
+        word_count_(capacity / 2) {}
 
  private:
+  // The build's buffer for one row's sample columns: the table's unwritten tail.
+  uint16_t* RowBuffer(int& room) const;
+  // Moves row v's m sorted, unique columns (in RowBuffer()) to the end of the tail, where the row's
+  // own entries cannot reach them, and appends them; kResourceExhausted when the table is full.
+  Status AppendBufferedRow(int v, int m);
   // Appends row v from `us` (sorted, unique); kResourceExhausted on overflow.
   Status AppendRow(int v, const uint16_t* us, int n);
   void Reset(int width, int height);
 
   uint8_t* delta_;
+  uint16_t* words_;
   size_t capacity_;
+  size_t word_count_;
   uint32_t pixels_ = 0;  // samples read per frame
   uint32_t used_ = 0;    // table entries (samples + escapes)
   uint16_t row_start_[kMaxRows + 1] = {};
@@ -201,7 +215,7 @@ class ScanlineTable : public ScanlineTableBase {
   ScanlineTable& operator=(const ScanlineTable&) = delete;
 
  private:
-  uint8_t storage_[kMaxPixels];
+  uint16_t storage_[(kMaxPixels + 1) / 2];
 };
 
 inline constexpr size_t kOmniScanPixels = 20000;   // 20 KB (+ 4 KB row index)
