@@ -166,6 +166,39 @@ TEST(ScanlineTest, CapacityOverflowLeavesTableEmpty) {
             StatusCode::kResourceExhausted);
 }
 
+// The build keeps each row's columns in the table's unwritten tail: a table with a little room to
+// spare is the same table, one too small is refused whole (never a partial or corrupt table).
+enum class Fit { kMust, kMustNot, kEither };
+template <size_t kCapacity>
+void ExpectSameOrRefused(const std::vector<std::pair<int, int>>& want, Fit fit) {
+  auto t = std::make_unique<ScanlineTable<kCapacity>>();
+  const Status st = t->BuildOmni(ReferenceOmniScanConfig(kCu, kCv), 640, 480);
+  EXPECT_FALSE(fit == Fit::kMustNot && st.ok()) << kCapacity;
+  if (!st.ok()) {
+    EXPECT_NE(fit, Fit::kMust) << kCapacity;
+    EXPECT_EQ(st.code(), StatusCode::kResourceExhausted) << kCapacity;
+    EXPECT_FALSE(t->built());
+    return;
+  }
+  std::vector<std::pair<int, int>> got;
+  ForEachScanPixel(*t, [&](int u, int v) { got.push_back({u, v}); });
+  EXPECT_EQ(got, want) << kCapacity;
+}
+
+TEST(ScanlineTest, ATableWithLittleRoomToSpareIsTheSameTableOrRefusedWhole) {
+  auto big = std::make_unique<ScanlineTable<kOmniScanPixels>>();
+  ASSERT_TRUE(big->BuildOmni(ReferenceOmniScanConfig(kCu, kCv), 640, 480).ok());
+  std::vector<std::pair<int, int>> want;
+  ForEachScanPixel(*big, [&](int u, int v) { want.push_back({u, v}); });
+  ASSERT_GT(want.size(), 15000u);
+  ExpectSameOrRefused<15000>(want, Fit::kMustNot);  // fewer bytes than samples
+  ExpectSameOrRefused<15100>(want, Fit::kEither);
+  ExpectSameOrRefused<15200>(want, Fit::kEither);
+  ExpectSameOrRefused<15400>(want, Fit::kEither);
+  ExpectSameOrRefused<16000>(want, Fit::kMust);
+  ExpectSameOrRefused<17001>(want, Fit::kMust);  // an odd capacity
+}
+
 TEST(ScanlineTest, KeptPairsAreTheKeptSamplesInOrderAndFollowsMeansTheSampleBeforeWasKept) {
   // A large mirror ring leaves gaps over 255 px (escape entries) on rows through the body; every
   // sample's pair word is a hash of its position, and a third of them are kept.
