@@ -102,31 +102,19 @@ class ScanlineTableBase {
   bool built() const { return pixels_ > 0; }
   size_t capacity() const { return capacity_; }
 
-  /// The one decoder of the table, for every reader of it: top to bottom, row(v) once per row
-  /// with samples, then sample(u, restart) for each of its samples left to right; `restart` is
-  /// true for a row's first sample and after a gap of more than 255 px. Storage: per row the
-  /// first u, then one byte per sample, the step from the previous one; a 0 step after the first
-  /// is an escape (advance 255, read nothing). Inlined: the front end's hot loop.
+  /// Every sample, top to bottom: row(v) once per row with samples, then sample(u, restart) for
+  /// each of its samples left to right; `restart` is true for a row's first sample and after a gap
+  /// of more than 255 px.
   template <typename RowFn, typename SampleFn>
   void ForEachSample(RowFn&& row, SampleFn&& sample) const {
     for (int v = 0; v < height_; ++v) {
-      const int n = row_start_[v + 1] - row_start_[v];
-      if (n == 0) continue;
-      const uint8_t* d = delta_ + row_start_[v];
-      int u = row_first_u_[v];
+      if (row_start_[v] == row_start_[v + 1]) continue;
       row(v);
-      sample(u, true);
-      bool restart = false;
-      for (int k = 1; k < n; ++k) {
-        if (d[k] == 0) {
-          u += 255;
-          restart = true;
-          continue;
-        }
-        u += d[k];
-        sample(u, restart);
-        restart = false;
-      }
+      const uint8_t* prev = nullptr;
+      ForEachInRow(v, [&](int u, const uint8_t* after) {
+        sample(u, prev != after - 1);
+        prev = after;
+      });
     }
   }
 
@@ -134,38 +122,26 @@ class ScanlineTableBase {
   /// (Y0 U Y1 V, read as one little-endian word) go to keep(word); for the kept ones
   /// hit(u, v, word, follows) is called, `follows` being true when the sample before it in the same
   /// row (no escape between) was kept too. No per-sample state is written for the samples that are
-  /// not kept (most of them), which is what makes this loop cheaper than ForEachSample. Each sample
-  /// also hints the cache at `prefetch_bytes` beyond its pair (a hint never faults).
+  /// not kept (most of them), which is what makes this loop cheap. Each sample also hints the cache
+  /// at `prefetch_bytes` beyond its pair (a hint never faults).
   template <typename KeepFn, typename HitFn>
   void ForEachKeptPair(const uint8_t* data, int stride, uintptr_t prefetch_bytes, KeepFn&& keep,
                        HitFn&& hit) const {
     static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "pair word is read little-endian");
     for (int v = 0; v < height_; ++v) {
-      const uint8_t* p = delta_ + row_start_[v];
-      const uint8_t* const end = delta_ + row_start_[v + 1];
-      if (p == end) continue;
       const uint8_t* const row = data + static_cast<ptrdiff_t>(v) * stride;
-      // p: the entry after the current sample's; kept: p of the last kept sample of this row.
-      const uint8_t* kept = nullptr;
-      int u = row_first_u_[v];
-      for (++p;;) {
+      const uint8_t* kept = nullptr;  // `after` of the last kept sample of this row
+      ForEachInRow(v, [&](int u, const uint8_t* after) {
         const uint8_t* pair = row + (u >> 1) * 4;
         __builtin_prefetch(
             reinterpret_cast<const void*>(reinterpret_cast<uintptr_t>(pair) + prefetch_bytes));
         uint32_t word;
         std::memcpy(&word, pair, sizeof word);
         if (__builtin_expect(keep(word), 0)) {
-          hit(u, v, word, kept + 1 == p);
-          kept = p;
+          hit(u, v, word, kept == after - 1);
+          kept = after;
         }
-        if (p == end) break;
-        uint32_t step = *p++;
-        while (step == 0) {  // escape (gap > 255 px); AppendRow puts a sample after every one
-          u += 255;
-          step = *p++;
-        }
-        u += static_cast<int>(step);
-      }
+      });
     }
   }
 
@@ -180,6 +156,28 @@ class ScanlineTableBase {
         word_count_(capacity / 2) {}
 
  private:
+  // The one decoder of the table: fn(u, after) for each sample of row v, left to right, `after`
+  // pointing past the sample's entry (two samples are neighbours exactly when the later one's is
+  // the earlier one's + 1; an escape between breaks that). Storage: per row the first u, then one
+  // byte per sample, the step from the previous one; a 0 step after the first is an escape
+  // (advance 255, read nothing), always followed by a sample (AppendRow).
+  template <typename Fn>
+  void ForEachInRow(int v, Fn&& fn) const {
+    const uint8_t* p = delta_ + row_start_[v];
+    const uint8_t* const end = delta_ + row_start_[v + 1];
+    if (p == end) return;
+    int u = row_first_u_[v];
+    for (++p;;) {
+      fn(u, static_cast<const uint8_t*>(p));
+      if (p == end) break;
+      uint32_t step = *p++;
+      while (step == 0) {
+        u += 255;
+        step = *p++;
+      }
+      u += static_cast<int>(step);
+    }
+  }
   // The build's buffer for one row's sample columns: the table's unwritten tail.
   uint16_t* RowBuffer(int& room) const;
   // Moves row v's m sorted, unique columns (in RowBuffer()) to the end of the tail, where the row's
