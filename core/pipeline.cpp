@@ -195,9 +195,9 @@ void Pipeline::NameGoals() {
   features_.goal_count = kept;
 }
 
-// The stands beyond the border, the inside of a goal: dark on green, but where the pose says no
-// robot stands (robots may be anywhere on the border, field_config.h). Without a trusted pose
-// every obstacle is kept.
+// The stands and people in the border, the inside of a goal: dark on green, but where the pose
+// says no robot in play stands (kObstacleOutsideM beyond the field of play, at most the border).
+// Without a trusted pose every obstacle is kept.
 void Pipeline::RefuseOffFieldObstacles() {
   if (!OwnPoseTrusted()) return;
   const PoseEstimate& e = localiser_.pose();

@@ -71,8 +71,11 @@ inline constexpr int kChainDv[8] = {0, -1, -1, -1, 0, 1, 1, 1};
 /// A pixel as one integer, v * kPackedRow + u (u < 4096), and the directions' steps in it.
 inline constexpr int32_t kPackedRow = 8192;
 inline constexpr int32_t PackedPixel(int u, int v) { return v * kPackedRow + u; }
-inline constexpr int32_t kChainDp[8] = {1,  1 - kPackedRow,  -kPackedRow, -1 - kPackedRow,
-                                        -1, -1 + kPackedRow, kPackedRow,  1 + kPackedRow};
+inline constexpr int32_t kChainDp[8] = {
+    PackedPixel(kChainDu[0], kChainDv[0]), PackedPixel(kChainDu[1], kChainDv[1]),
+    PackedPixel(kChainDu[2], kChainDv[2]), PackedPixel(kChainDu[3], kChainDv[3]),
+    PackedPixel(kChainDu[4], kChainDv[4]), PackedPixel(kChainDu[5], kChainDv[5]),
+    PackedPixel(kChainDu[6], kChainDv[6]), PackedPixel(kChainDu[7], kChainDv[7])};
 
 enum class SeedOutcome : uint8_t {
   kNewRegion,      // traced a new outer contour (regions().back())

@@ -21,7 +21,7 @@ struct FieldConfig {
   float goal_width_m = 2.0f;             // between the posts' inner faces
   float goal_height_m = 1.0f;
   float goal_depth_m = 0.6f;  // goal line to the back of the goal
-  float border_m = 1.5f;      // floor beyond the lines (obstacles and the robot may be there)
+  float border_m = 1.5f;      // floor beyond the lines (the robot may be there; people, not robots)
   float margin_m = 0.3f;      // in-field rule: a ball on or just over a line still counts as inside
 };
 
