@@ -1,6 +1,6 @@
 // Firmware entry point, the same for every board: the board brings up its peripherals, the
 // main loop runs until the camera finishes (QEMU replay) or forever (live board).
-#include "firmware/board.h"
+#include "firmware/boards/board.h"
 #include "firmware/main_loop.h"
 
 int main() {
@@ -14,7 +14,7 @@ int main() {
     BoardExit(2);
   }
   static MainLoop loop(*board.camera, *board.uart, *board.clock, *board.storage,
-                       BoardBlobScratch(kBlobScratchBytes), board.config, board.camera_bad_input,
+                       BoardBlobScratch(kBlobScratchBytes), board.config, board.watchdog,
                        BoardUploadBuffer());
   const bv::Status start = loop.Init();
   if (!start.ok()) {

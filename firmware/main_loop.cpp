@@ -35,14 +35,14 @@ YuyvImage ToImage(const hal::Frame& f) {
 
 MainLoop::MainLoop(hal::Camera& camera, hal::Uart& uart, hal::Clock& clock, hal::Storage& storage,
                    std::span<uint8_t> blob_scratch, const MainLoopConfig& config,
-                   const uint32_t* camera_bad_input, std::span<uint8_t> upload_buffer)
+                   hal::Watchdog* watchdog, std::span<uint8_t> upload_buffer)
     : camera_(camera),
       uart_(uart),
       clock_(clock),
       storage_(storage),
       blob_scratch_(blob_scratch),
       config_(config),
-      camera_bad_input_(camera_bad_input),
+      watchdog_(watchdog),
       upload_buffer_(upload_buffer.size() >= kUploadBufferBytes ? upload_buffer
                                                                 : std::span<uint8_t>()) {
   static_assert(kAdapterOffset % alignof(ColorAdapter) == 0);
@@ -631,9 +631,7 @@ void MainLoop::SendStatus() {
                               (interval_last_exposure_us_ - interval_first_exposure_us_));
   }
   interval_pairs_ = 0;
-  if (camera_bad_input_ != nullptr && *camera_bad_input_ != 0) {
-    status_.fault_flags |= kFaultCameraBadInput;
-  }
+  if (camera_.BadInputCount() != 0) status_.fault_flags |= kFaultCameraBadInput;
   const Result<size_t> n = protocol::EncodeStatus(status_, seq_++, packet_);
   if (!n.ok()) {
     ++status_.pipeline_errors;  // cannot happen with a correctly sized buffer; counted anyway
@@ -673,6 +671,7 @@ void MainLoop::MaybeSendStatus(uint64_t exposure_us) {
 }
 
 bool MainLoop::Poll() {
+  if (watchdog_ != nullptr) watchdog_->Feed();
   PollCommands();
   SendPendingSync();
   PumpCapture();

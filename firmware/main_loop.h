@@ -20,6 +20,7 @@
 #include "hal/clock.h"
 #include "hal/storage.h"
 #include "hal/uart.h"
+#include "hal/watchdog.h"
 
 namespace bv::fw {
 
@@ -95,7 +96,7 @@ struct MainLoopConfig {
 /// Bits of StatusReport::fault_flags set by the main loop.
 enum FaultFlags : uint32_t {
   kFaultPipelineNotReady = 1u << 0,  // no usable calibration / LUT: ball states are "not found"
-  kFaultCameraBadInput = 1u << 1,    // the camera layer rejected frames (see board counter)
+  kFaultCameraBadInput = 1u << 1,    // the camera layer rejected input (Camera::BadInputCount)
   kFaultCameraStart = 1u << 2,       // Camera::Start failed
   kFaultTimestampJump = 1u << 3,     // a pair's exposure time jumped forward by more than
                                      // kTimestampJumpPeriods frame periods (sticky)
@@ -111,11 +112,10 @@ class MainLoop {
   /// is not used afterwards, so a board may lend a camera DMA slot before Camera::Start().
   /// `upload_buffer` (>= kUploadBufferBytes, else uploads are refused) receives calibration /
   /// LUT uploads from the main computer.
-  /// `camera_bad_input` is an optional board counter of rejected frames/rows, reported through
-  /// kFaultCameraBadInput.
+  /// `watchdog` (optional) is fed once per Poll().
   MainLoop(hal::Camera& camera, hal::Uart& uart, hal::Clock& clock, hal::Storage& storage,
            std::span<uint8_t> blob_scratch, const MainLoopConfig& config = MainLoopConfig(),
-           const uint32_t* camera_bad_input = nullptr,
+           hal::Watchdog* watchdog = nullptr,
            std::span<uint8_t> upload_buffer = std::span<uint8_t>());
 
   /// Loads calibration and LUT (problems are reported in the status packet, not fatal), starts
@@ -258,7 +258,7 @@ class MainLoop {
   hal::Storage& storage_;
   std::span<uint8_t> blob_scratch_;
   MainLoopConfig config_;
-  const uint32_t* camera_bad_input_;
+  hal::Watchdog* watchdog_;
   std::span<uint8_t> upload_buffer_;
 
   RigCalibration calibration_;

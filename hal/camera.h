@@ -35,8 +35,8 @@ struct FramePair {
   uint64_t exposure_us = 0;  // the pair's timestamp: the mean of the present frames' exposures
   int64_t skew_us = 0;       // persp - omni exposure when both present
   uint32_t flags = 0;
-  uint32_t dropped = 0;      // complete frames overwritten before they were acquired, since last pair
-  uint32_t slot = 0;         // board-private, returned in Release()
+  uint32_t dropped = 0;  // complete frames overwritten before they were acquired, since last pair
+  uint32_t slot = 0;     // board-private, returned in Release()
 };
 
 class Camera {
@@ -53,6 +53,9 @@ class Camera {
   /// Pairs that may be held (acquired, not yet released) at once. 2 lets the loop keep one
   /// pair for a capture over the link while it goes on with the next ones.
   int MaxHeldPairs() const { return DoMaxHeldPairs(); }
+  /// Input the camera refused since start (malformed rows, unreadable frames, DMA errors); the
+  /// main loop reports a non-zero count as a fault in its status packet.
+  uint32_t BadInputCount() const { return DoBadInputCount(); }
 
  private:
   virtual Status DoStart() = 0;
@@ -60,6 +63,7 @@ class Camera {
   virtual void DoRelease(const FramePair& pair) = 0;
   virtual bool DoFinished() const { return false; }
   virtual int DoMaxHeldPairs() const { return 1; }
+  virtual uint32_t DoBadInputCount() const { return 0; }
 };
 
 }  // namespace bv::hal

@@ -37,7 +37,8 @@ class FakeCamera : public hal::Camera {
     for (int i = 0; i < n; ++i) Add({static_cast<uint64_t>(i) * period_us, 0, 0});
   }
   int held() const { return held_; }
-  int idle_polls = 1;  // kUnavailable answers before each pair (the loop must poll, not block)
+  uint32_t bad_input = 0;  // what the camera layer says it refused
+  int idle_polls = 1;      // kUnavailable answers before each pair (the loop must poll, not block)
 
  private:
   Status DoStart() override { return Status(); }
@@ -57,6 +58,7 @@ class FakeCamera : public hal::Camera {
   }
   void DoRelease(const hal::FramePair&) override { --held_; }
   bool DoFinished() const override { return next_ >= count_; }
+  uint32_t DoBadInputCount() const override { return bad_input; }
 
   std::array<ScriptedPair, kCapacity> script_{};
   size_t count_ = 0, next_ = 0;
@@ -222,6 +224,44 @@ class MainLoopTest : public ::testing::Test {
   std::unique_ptr<MainLoop> loop_;
   Status init_;
 };
+
+class CountingWatchdog : public hal::Watchdog {
+ public:
+  int feeds = 0;
+
+ private:
+  void DoFeed() override { ++feeds; }
+};
+
+// The watchdog hears from the loop itself, once per iteration, not from a driver: a loop that
+// stops iterating (a hung pipeline, a stuck command) stops feeding it.
+TEST_F(MainLoopTest, TheWatchdogIsFedOncePerIteration) {
+  camera_.AddRegular(6, 33333);
+  CountingWatchdog watchdog;
+  loop_ = std::make_unique<MainLoop>(camera_, uart_, clock_, storage_, scratch_, MainLoopConfig(),
+                                     &watchdog);
+  ASSERT_TRUE(loop_->Init().ok());
+  EXPECT_EQ(watchdog.feeds, 0);
+  int polls = 0;
+  while (!camera_.Finished()) {
+    loop_->Poll();
+    ++polls;
+    ASSERT_EQ(watchdog.feeds, polls);
+  }
+  EXPECT_GT(polls, 6);  // idle polls between pairs feed it too
+}
+
+TEST_F(MainLoopTest, InputTheCameraRefusedIsAFaultInTheStatus) {
+  camera_.AddRegular(10, 33333);
+  Run();
+  EXPECT_EQ(Decode(uart_.bytes()).last_status.fault_flags & kFaultCameraBadInput, 0u);
+  camera_ = FakeCamera();
+  uart_ = FakeUart<64 * 1024>();
+  camera_.AddRegular(10, 33333);
+  camera_.bad_input = 1;
+  Run();
+  EXPECT_NE(Decode(uart_.bytes()).last_status.fault_flags & kFaultCameraBadInput, 0u);
+}
 
 TEST_F(MainLoopTest, WithoutCalibrationEveryPairStillGivesOnePacketAndStatusSaysMissing) {
   camera_.AddRegular(10, 33333);

@@ -4,7 +4,7 @@
 #   run_qemu_faults.sh QEMU ELF BALLVISION SRC_SEQ WORK_DIR KIND [CALIB_JSON LUT_BLOB]
 # KIND: torn | drop | swap | jump | stopcam | uartstuck | hang. torn, drop, uartstuck and hang
 # (the loop stops iterating: the board's watchdog must end the run with exit 103) are injected
-# by the board (inject=, hal/qemu_mps2/board.cpp); swap, jump and stopcam are written into the
+# by the board (inject=, firmware/boards/qemu_mps2/board.cpp); swap, jump and stopcam are written into the
 # test's frames.csv, which is exactly what the camera layer would see. With CALIB_JSON and
 # LUT_BLOB the full pipeline runs on the faulty frames (else the loop runs "not ready").
 # Exit 0 pass, 1 fail, 77 skip (shared data absent).

@@ -151,6 +151,26 @@ inline void NvicPriority(Nvic& nvic, int irq, uint8_t prio) {
   nvic.IPR[irq] = static_cast<uint8_t>(prio << 4);
 }
 
+/// Instruction cache, then data cache (invalidated by set/way first); D-cache coherence with DMA
+/// is the drivers' business (clean / invalidate by address).
+inline void EnableCaches() {
+  asm volatile("dsb\n isb" ::: "memory");
+  kScb->ICIALLU = 0;
+  asm volatile("dsb\n isb" ::: "memory");
+  kScb->CCR = kScb->CCR | (1u << 17);
+  kCacheId->CSSELR = 0;
+  asm volatile("dsb" ::: "memory");
+  const uint32_t ccsidr = kCacheId->CCSIDR;
+  const uint32_t sets = ((ccsidr >> 13) & 0x7FFFu) + 1;
+  const uint32_t ways = ((ccsidr >> 3) & 0x3FFu) + 1;
+  for (uint32_t s = 0; s < sets; ++s) {
+    for (uint32_t w = 0; w < ways; ++w) kScb->DCISW = (s << 5) | (w << 30);
+  }
+  asm volatile("dsb" ::: "memory");
+  kScb->CCR = kScb->CCR | (1u << 16);
+  asm volatile("dsb\n isb" ::: "memory");
+}
+
 /// Static constructors (after .data/.bss and anything they rely on, e.g. external RAM).
 inline void RunConstructors() {
   for (auto** f = __init_array_start; f < __init_array_end; ++f) (*f)();

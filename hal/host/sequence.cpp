@@ -29,12 +29,20 @@ bool EndsWith(const std::string& s, const char* suffix) {
                     [](char a, char b) { return std::tolower(a) == std::tolower(b); });
 }
 
-bool ParseInt(const std::string& s, long long& v) {
-  if (s.empty()) return false;
-  char* end = nullptr;
-  errno = 0;
-  v = std::strtoll(s.c_str(), &end, 10);
-  return errno == 0 && end && *end == '\0';
+std::string RowProblem(const hal::FramesRow& row, const hal::FramesColumns& columns) {
+  const std::string field(row.bad_field);
+  switch (row.problem) {
+    case hal::FramesRowProblem::kColumnCount:
+      return "has " + std::to_string(row.columns) + " columns, header has " +
+             std::to_string(columns.count);
+    case hal::FramesRowProblem::kIndex:
+      return "index '" + field + "' is not an integer";
+    case hal::FramesRowProblem::kTimestamp:
+      return "t_us '" + field + "' is not a non-negative integer";
+    case hal::FramesRowProblem::kNone:
+      break;
+  }
+  return "malformed row";
 }
 
 uint8_t Clamp8(int v) { return static_cast<uint8_t>(std::clamp(v, 0, 255)); }
@@ -219,54 +227,36 @@ bool ParseSequenceIndex(const std::string& text, const std::string& dir, bool ch
     error = csv + ": empty file";
     return false;
   }
-  const auto header = SplitCsvLine(line);
-  int col_index = -1, col_t = -1, col_omni = -1, col_persp = -1;
-  for (size_t i = 0; i < header.size(); ++i) {
-    if (header[i] == "index") col_index = static_cast<int>(i);
-    if (header[i] == "t_us") col_t = static_cast<int>(i);
-    if (header[i] == "omni_file") col_omni = static_cast<int>(i);
-    if (header[i] == "persp_file") col_persp = static_cast<int>(i);
-  }
-  if (col_index < 0 || col_t < 0 || col_omni < 0 || col_persp < 0) {
+  hal::FramesColumns columns;
+  if (!hal::ParseFramesHeader(line, columns).ok()) {
     error = csv + ":1: header must have columns index,t_us,omni_file,persp_file";
     return false;
   }
-  const size_t ncols = header.size();
-  std::set<long long> seen;
+  std::set<int64_t> seen;
   int lineno = 1;
   while (std::getline(f, line)) {
     ++lineno;
     if (line.empty() || line == "\r") continue;
-    const auto cols = SplitCsvLine(line);
     const std::string where = csv + ":" + std::to_string(lineno) + ": ";
-    if (cols.size() != ncols) {
-      error = where + "has " + std::to_string(cols.size()) + " columns, header has " +
-              std::to_string(ncols);
+    hal::FramesRow row;
+    if (!hal::ParseFramesRow(line, columns, row).ok()) {
+      error = where + RowProblem(row, columns);
       return false;
     }
-    long long index = 0, t = 0;
-    if (!ParseInt(cols[col_index], index)) {
-      error = where + "index '" + cols[col_index] + "' is not an integer";
+    if (!seen.insert(row.index).second) {
+      error = where + "duplicate index " + std::to_string(row.index);
       return false;
     }
-    if (!ParseInt(cols[col_t], t) || t < 0) {
-      error = where + "t_us '" + cols[col_t] + "' is not a non-negative integer";
-      return false;
-    }
-    if (!seen.insert(index).second) {
-      error = where + "duplicate index " + std::to_string(index);
-      return false;
-    }
-    if (!out.entries.empty() && static_cast<uint64_t>(t) <= out.entries.back().t_us) {
-      error = where + "t_us " + std::to_string(t) + " is not after the previous row's " +
+    if (!out.entries.empty() && row.t_us <= out.entries.back().t_us) {
+      error = where + "t_us " + std::to_string(row.t_us) + " is not after the previous row's " +
               std::to_string(out.entries.back().t_us);
       return false;
     }
     SequenceEntry e;
-    e.index = index;
-    e.t_us = static_cast<uint64_t>(t);
+    e.index = row.index;
+    e.t_us = row.t_us;
     for (int c = 0; c < 2; ++c) {
-      const std::string& name = cols[c == 0 ? col_omni : col_persp];
+      const std::string name(c == 0 ? row.omni_file : row.persp_file);
       if (name.empty()) continue;
       std::string path = name[0] == '/' ? name : dir + "/" + name;
       if (check_files && !FileExists(path)) {

@@ -7,6 +7,7 @@
 
 #include "core/common/status.h"
 #include "hal/camera.h"
+#include "hal/common/frames_csv.h"
 
 namespace bv::host {
 

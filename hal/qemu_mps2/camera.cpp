@@ -3,7 +3,6 @@
 #include <cstring>
 
 #include "hal/qemu_mps2/semihosting.h"
-#include "hal/qemu_mps2/watchdog.h"
 
 namespace bv::qemu {
 
@@ -42,7 +41,8 @@ Status SemihostingCamera::DoStart() {
   }
   reader_.Reset(csv_fd_);
   const LineReader::Result r = reader_.Next();
-  if (r != LineReader::Result::kLine || !IsFramesHeader(reader_.line(), reader_.length())) {
+  if (r != LineReader::Result::kLine ||
+      !hal::ParseFramesHeader({reader_.line(), reader_.length()}, columns_).ok()) {
     Report("bad header", reader_.line_number(), "expected index,t_us,omni_file,persp_file");
     return Status(StatusCode::kInvalidArgument, "camera: frames.csv has no valid header");
   }
@@ -50,20 +50,25 @@ Status SemihostingCamera::DoStart() {
   return Status();
 }
 
-bool SemihostingCamera::LoadFrame(hal::CameraId id, const char* file, const FramesRow& row,
-                                  uint32_t line, uint32_t& slot, bool tear) {
-  (void)row;
+bool SemihostingCamera::LoadFrame(hal::CameraId id, std::string_view name, uint32_t line,
+                                  uint32_t& slot, bool tear) {
   const int c = static_cast<int>(id);
-  const size_t fn = std::strlen(file);
-  if (fn < 5 || std::strcmp(file + fn - 5, ".yuyv") != 0) {
+  // dir/name, the file name also on its own for the reports.
+  char path[kMaxPath + kMaxFileName + 2];
+  const size_t dn = std::strlen(dir_);
+  if (name.size() > kMaxFileName) {
+    Report("frame file name too long", line, "row's frame skipped");
+    return false;
+  }
+  std::memcpy(path, dir_, dn);
+  path[dn] = '/';
+  std::memcpy(path + dn + 1, name.data(), name.size());
+  path[dn + 1 + name.size()] = '\0';
+  const char* file = path + dn + 1;
+  if (!name.ends_with(".yuyv")) {
     Report("frame file is not raw .yuyv (convert with `ballvision seq to-raw`)", line, file);
     return false;
   }
-  char path[kMaxPath + kMaxCsvField + 2];
-  const size_t dn = std::strlen(dir_);
-  std::memcpy(path, dir_, dn);
-  path[dn] = '/';
-  std::memcpy(path + dn + 1, file, fn + 1);
   // The DMA never writes the slot the main loop holds nor one with an unserved frame.
   const int pending = pairer_.pending_slot(id);
   int target = -1;
@@ -102,7 +107,7 @@ bool SemihostingCamera::LoadFrame(hal::CameraId id, const char* file, const Fram
   return ok;
 }
 
-bool SemihostingCamera::NextRow(FramesRow& row, uint32_t& line) {
+bool SemihostingCamera::NextRow(hal::FramesRow& row, uint32_t& line) {
   if (finished_ || csv_fd_ < 0) return false;
   for (;;) {
     const LineReader::Result r = reader_.Next();
@@ -119,32 +124,29 @@ bool SemihostingCamera::NextRow(FramesRow& row, uint32_t& line) {
     } else if (reader_.length() == 0) {
       continue;  // blank line
     } else {
-      const Status st = ParseFramesRow(reader_.line(), reader_.length(), row);
+      const Status st = hal::ParseFramesRow({reader_.line(), reader_.length()}, columns_, row);
       if (st.ok()) return true;
       Report("malformed row", line, st.message());
     }
     ++bad_rows_;
-    ++bad_input_;
   }
 }
 
-void SemihostingCamera::CaptureRow(const FramesRow& row, uint32_t line, bool tear_omni) {
-  const char* files[hal::kCameraCount] = {row.omni_file, row.persp_file};
+void SemihostingCamera::CaptureRow(const hal::FramesRow& row, uint32_t line, bool tear_omni) {
+  const std::string_view files[hal::kCameraCount] = {row.omni_file, row.persp_file};
   for (int c = 0; c < hal::kCameraCount; ++c) {
-    if (files[c][0] == '\0') continue;
+    if (files[c].empty()) continue;
     uint32_t slot = 0;
     const auto id = static_cast<hal::CameraId>(c);
-    if (LoadFrame(id, files[c], row, line, slot, tear_omni && c == 0)) {
+    if (LoadFrame(id, files[c], line, slot, tear_omni && c == 0)) {
       pairer_.OnFrameComplete(id, row.t_us, static_cast<uint32_t>(row.index), slot);
     } else {
       ++bad_frames_;
-      ++bad_input_;
     }
   }
 }
 
 Status SemihostingCamera::DoAcquirePair(hal::FramePair& out) {
-  WatchdogFeed();  // every main-loop iteration asks for a pair
   if (finished_ || csv_fd_ < 0) {
     return Status(StatusCode::kUnavailable, "camera: no frame");
   }
@@ -152,14 +154,14 @@ Status SemihostingCamera::DoAcquirePair(hal::FramePair& out) {
     finished_ = true;
     return Status(StatusCode::kUnavailable, "camera: frame limit reached");
   }
-  FramesRow row;
+  hal::FramesRow row;  // its file names are views into the reader's line
   uint32_t line = 0;
   if (!NextRow(row, line)) return Status(StatusCode::kUnavailable, "camera: end of sequence");
   CaptureRow(row, line, pairs_served_ == faults_.torn_at);
   if (pairs_served_ == faults_.drop_at) {
     // Injected overrun: the next row's frames also complete before the loop polls, so the
     // pairer replaces (and counts as dropped) the unserved frames of this row.
-    FramesRow next;
+    hal::FramesRow next;
     if (NextRow(next, line)) {
       CaptureRow(next, line, false);
       row = next;

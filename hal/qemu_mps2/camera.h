@@ -8,15 +8,16 @@
 #include "hal/camera.h"
 #include "hal/clock.h"
 #include "hal/common/frame_pairer.h"
-#include "hal/qemu_mps2/frames_csv.h"
+#include "hal/common/frames_csv.h"
+#include "hal/qemu_mps2/line_reader.h"
 
 namespace bv::qemu {
 
 inline constexpr int kSlotsPerCamera = 2;
 using FrameSlots = uint8_t[hal::kCameraCount][kSlotsPerCamera][kFrameBytes];
 
-/// Camera faults a file cannot express (board argument inject=, see board.cpp). Indices count
-/// pairs handed out, from 0; kNever: off.
+/// Camera faults a file cannot express (board argument inject=, see
+/// firmware/boards/qemu_mps2/board.cpp). Indices count pairs handed out, from 0; kNever: off.
 struct CameraFaults {
   static constexpr uint32_t kNever = UINT32_MAX;
   uint32_t torn_at = kNever;  // pair N's omni slot is handed out while its DMA write is half done
@@ -26,7 +27,8 @@ struct CameraFaults {
 
 class SemihostingCamera : public hal::Camera {
  public:
-  static constexpr size_t kMaxPath = 240;
+  static constexpr size_t kMaxPath = 240;      // the sequence directory
+  static constexpr size_t kMaxFileName = 120;  // a frame file named in frames.csv
 
   /// `slots` are the DMA frame buffers; `dir` is the sequence directory (copied).
   SemihostingCamera(FrameSlots& slots, const char* dir, const hal::PairerConfig& pairer,
@@ -35,7 +37,6 @@ class SemihostingCamera : public hal::Camera {
   /// wrong size, not raw .yuyv); each is reported once on the debug channel.
   uint32_t bad_rows() const { return bad_rows_; }
   uint32_t bad_frames() const { return bad_frames_; }
-  const uint32_t* bad_input_counter() const { return &bad_input_; }
   /// Test aid: the replay reports Finished() only once *counter >= target (e.g. received UART
   /// bytes), so commands fed through QEMU's chardev are all served before the final status.
   void HoldOpenUntil(const uint32_t* counter, uint32_t target) {
@@ -57,16 +58,16 @@ class SemihostingCamera : public hal::Camera {
   void DoRelease(const hal::FramePair& pair) override;
   // One pair held by a capture, the other slot for the loop's next pair.
   int DoMaxHeldPairs() const override { return kSlotsPerCamera; }
+  uint32_t DoBadInputCount() const override { return bad_rows_ + bad_frames_; }
   bool DoFinished() const override {
     return finished_ && (hold_counter_ == nullptr || *hold_counter_ >= hold_target_);
   }
 
-  bool LoadFrame(hal::CameraId id, const char* file, const FramesRow& row, uint32_t line,
-                 uint32_t& slot, bool tear);
+  bool LoadFrame(hal::CameraId id, std::string_view file, uint32_t line, uint32_t& slot, bool tear);
   /// Next parseable frames.csv row; false at the end of the sequence (then finished_).
-  bool NextRow(FramesRow& row, uint32_t& line);
+  bool NextRow(hal::FramesRow& row, uint32_t& line);
   /// "DMA" of the row's frames into free slots, reported to the pairer.
-  void CaptureRow(const FramesRow& row, uint32_t line, bool tear_omni);
+  void CaptureRow(const hal::FramesRow& row, uint32_t line, bool tear_omni);
   void Report(const char* what, uint32_t line, const char* detail);
 
   FrameSlots& slots_;
@@ -75,12 +76,12 @@ class SemihostingCamera : public hal::Camera {
   hal::FramePairer pairer_;
   int csv_fd_ = -1;
   LineReader reader_;
+  hal::FramesColumns columns_;
   uint32_t held_mask_[hal::kCameraCount] = {};  // slots handed out and not yet released
   uint32_t max_pairs_ = 0;                      // 0: all rows
   uint32_t pairs_served_ = 0;
   uint32_t bad_rows_ = 0;
   uint32_t bad_frames_ = 0;
-  uint32_t bad_input_ = 0;
   bool finished_ = false;
   const uint32_t* hold_counter_ = nullptr;
   uint32_t hold_target_ = 0;

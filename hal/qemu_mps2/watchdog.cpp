@@ -15,7 +15,7 @@ uint32_t g_limit_ticks = 0;
 
 }  // namespace
 
-void WatchdogStart(uint32_t cpu_hz, uint32_t timeout_ms) {
+void SysTickWatchdog::Start(uint32_t cpu_hz, uint32_t timeout_ms) {
   g_limit_ticks = (timeout_ms + kTickMs - 1) / kTickMs;
   g_ticks_since_feed = 0;
   kSysTick->RVR = cpu_hz / 1000 * kTickMs - 1;  // 24-bit: fine up to 1.6 GHz at 10 ms
@@ -23,9 +23,9 @@ void WatchdogStart(uint32_t cpu_hz, uint32_t timeout_ms) {
   kSysTick->CSR = 0x7;  // enable, interrupt, processor clock
 }
 
-void WatchdogStop() { kSysTick->CSR = 0; }
+void SysTickWatchdog::Stop() { kSysTick->CSR = 0; }
 
-void WatchdogFeed() {
+void SysTickWatchdog::DoFeed() {
   g_ticks_since_feed = 0;
   g_fed = true;
 }

@@ -125,7 +125,6 @@ void DcmiCamera::OnDcmiIrq() {
 }
 
 Status DcmiCamera::DoAcquirePair(hal::FramePair& out) {
-  WatchdogKick();  // the loop polls the camera continuously; a stuck loop resets the board
   if (!started_) return Status(StatusCode::kUnavailable, "dcmi: not started");
   hal::PairDecision d;
   const uint64_t now = clock_.NowUs();

@@ -30,13 +30,13 @@ class DcmiCamera : public hal::Camera {
   // Interrupt entry points.
   void OnDmaIrq();
   void OnDcmiIrq();
-  /// Frames lost to DCMI overrun / sync errors (reported as camera bad input).
-  const uint32_t* error_counter() const { return &errors_; }
 
  private:
   Status DoStart() override;
   Status DoAcquirePair(hal::FramePair& out) override;
   void DoRelease(const hal::FramePair& pair) override;
+  /// Frames lost to DCMI overrun / sync errors.
+  uint32_t DoBadInputCount() const override { return errors_; }
 
   int FreeSlot() const;
   uint32_t ChunkAddress(int slot, int chunk) const;
@@ -53,7 +53,7 @@ class DcmiCamera : public hal::Camera {
   volatile int held_slot_ = -1;  // handed out to the main loop
   volatile uint64_t frame_start_us_ = 0;
   volatile uint32_t sequence_ = 0;
-  uint32_t errors_ = 0;  // written by interrupts only; the loop reads it through the pointer
+  uint32_t errors_ = 0;  // written by interrupts only (read through a call: never cached)
   volatile bool started_ = false;
 };
 

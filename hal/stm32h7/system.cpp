@@ -104,18 +104,6 @@ void SdramInit() {
   kFmc->SDRTR = 1542u << 1;
 }
 
-void WatchdogInit() {
-  kIwdg1->KR = 0xCCCC;  // start (LSI 32 kHz)
-  kIwdg1->KR = 0x5555;  // unlock PR/RLR
-  kIwdg1->PR = 2;       // /16 -> 2 kHz
-  kIwdg1->RLR = 1000;   // 0.5 s
-  while (kIwdg1->SR != 0) {
-  }
-  kIwdg1->KR = 0xAAAA;
-}
-
-void WatchdogKick() { kIwdg1->KR = 0xAAAA; }
-
 void ItmWrite(const char* text) {
   if ((kItm->TCR & 1u) == 0 || (kItm->TER & 1u) == 0) return;
   for (; *text != '\0'; ++text) {

@@ -1,5 +1,5 @@
 #pragma once
-// STM32H743 bring-up: clock tree, external SDRAM, pins, watchdog, debug log.
+// STM32H743 bring-up: clock tree, external SDRAM, pins, debug log.
 #include <cstdint>
 
 namespace bv::h7 {
@@ -15,9 +15,6 @@ void ClockTreeInit();
 void PinsInit();
 /// FMC SDRAM bank 1 at 0xC0000000: 32 MB, 32-bit, SDCLK 100 MHz (IS42S32800-class part).
 void SdramInit();
-/// Independent watchdog, ~0.5 s timeout; refreshed by the camera poll of the main loop.
-void WatchdogInit();
-void WatchdogKick();
 /// Text on ITM stimulus port 0 (SWO) when a debugger enabled it; otherwise nothing.
 void ItmWrite(const char* text);
 [[noreturn]] void SystemReset();

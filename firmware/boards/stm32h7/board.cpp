@@ -1,12 +1,13 @@
 // STM32H743 board bring-up for the firmware: clocks (in Reset_Handler), pins, SDRAM, TIM2,
 // USART1 + DMA, flash blob slots, DCMI camera, watchdog.
-#include "firmware/board.h"
+#include "firmware/boards/board.h"
 #include "hal/stm32h7/camera.h"
 #include "hal/stm32h7/clock.h"
 #include "hal/stm32h7/flash_storage.h"
 #include "hal/stm32h7/registers.h"
 #include "hal/stm32h7/system.h"
 #include "hal/stm32h7/uart.h"
+#include "hal/stm32h7/watchdog.h"
 
 namespace {
 
@@ -21,6 +22,7 @@ Tim2Clock g_clock;
 DmaUart g_uart;
 FlashStorage g_storage;
 DcmiCamera g_camera(g_capture_slots, g_clock, bv::hal::PairerConfig());
+IndependentWatchdog g_watchdog;
 
 }  // namespace
 
@@ -37,12 +39,12 @@ Status BoardInit(BoardServices& out) {
   SdramInit();
   g_clock.Init();
   g_uart.Init(&g_clock);
-  WatchdogInit();
+  g_watchdog.Start();
   out.camera = &g_camera;
   out.uart = &g_uart;
   out.clock = &g_clock;
   out.storage = &g_storage;
-  out.camera_bad_input = g_camera.error_counter();
+  out.watchdog = &g_watchdog;
   return Status();
 }
 

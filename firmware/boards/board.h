@@ -1,6 +1,6 @@
 #pragma once
-// What each board (hal/qemu_mps2, hal/stm32h7) provides to the board-independent firmware:
-// exactly one implementation is linked into an image.
+// What each board's bring-up (firmware/boards/<board>/board.cpp, on that board's drivers in
+// hal/<board>) provides to the board-independent firmware: exactly one is linked into an image.
 #include <cstddef>
 #include <span>
 
@@ -10,6 +10,7 @@
 #include "hal/clock.h"
 #include "hal/storage.h"
 #include "hal/uart.h"
+#include "hal/watchdog.h"
 
 namespace bv::fw {
 
@@ -18,7 +19,7 @@ struct BoardServices {
   hal::Uart* uart = nullptr;
   hal::Clock* clock = nullptr;
   hal::Storage* storage = nullptr;
-  const uint32_t* camera_bad_input = nullptr;  // optional counter of rejected camera input
+  hal::Watchdog* watchdog = nullptr;  // started by BoardInit, fed by the main loop
   MainLoopConfig config;
 };
 

@@ -18,11 +18,12 @@
 //                    drop@N       pairs N and N+1 complete before the loop polls (one dropped)
 //                    uartstuck@N  UART0 transmits nothing after pair N is handed out
 //                    hang@N       the loop hangs releasing pair N (the watchdog must bite)
-// A software watchdog (watchdog.h) fed by every camera poll ends a stalled run with exit 103.
+// A software watchdog (hal/qemu_mps2/watchdog.h) fed by the main loop ends a stalled run with
+// exit 103.
 // At exit the board prints its own counters ("board: exit ..."), which survive a stuck UART.
 #include <cstring>
 
-#include "firmware/board.h"
+#include "firmware/boards/board.h"
 #include "hal/common/blob_store.h"
 #include "hal/qemu_mps2/camera.h"
 #include "hal/qemu_mps2/clock.h"
@@ -51,6 +52,7 @@ constexpr uint32_t kWatchdogTimeoutMs = 1000;
 char g_cmdline[512];
 CmsdkUart* g_uart = nullptr;            // for the receive interrupt and the flush at exit
 SemihostingCamera* g_camera = nullptr;  // for the exit summary
+SysTickWatchdog g_watchdog;
 
 // Finds "key=" in the command line and copies its value; false if absent or too long.
 bool GetArg(const char* key, char* out, size_t out_size) {
@@ -219,13 +221,13 @@ Status BoardInit(BoardServices& out) {
   }
   camera.SetClock(&clock);
   g_camera = &camera;
-  WatchdogStart(kTimerClockHz, kWatchdogTimeoutMs);
+  g_watchdog.Start(kTimerClockHz, kWatchdogTimeoutMs);
 
   out.camera = &camera;
   out.uart = &uart;
   out.clock = &clock;
   out.storage = &storage;
-  out.camera_bad_input = camera.bad_input_counter();
+  out.watchdog = &g_watchdog;
   return Status();
 }
 
@@ -241,7 +243,7 @@ std::span<uint8_t> BoardUploadBuffer() { return g_upload; }
 void BoardLog(const char* text) { SemiWrite0(text); }
 
 void BoardExit(int code) {
-  WatchdogStop();
+  g_watchdog.Stop();
   // The UART (ring + hardware) is fully drained before QEMU exits and closes the serial file
   // (unless its transmitter is stalled by fault injection: then the summary below is all).
   if (g_uart != nullptr) g_uart->Flush();

@@ -1,27 +1,12 @@
 #pragma once
-// Device-side frames.csv parsing (DESIGN.md §4): bounded line length, no allocation, every bad
-// row reported with its line number; pure functions so the logic is independent of the board.
+// Lines of a semihosting file through fixed buffers (frames.csv on the device): a line longer
+// than kMaxCsvLine is reported and skipped, never truncated.
 #include <cstddef>
 #include <cstdint>
 
-#include "core/common/status.h"
-
 namespace bv::qemu {
 
-inline constexpr size_t kMaxCsvLine = 256;   // longer lines are rejected, not truncated
-inline constexpr size_t kMaxCsvField = 120;  // per file name
-
-struct FramesRow {
-  int64_t index = 0;
-  uint64_t t_us = 0;
-  char omni_file[kMaxCsvField + 1] = {};  // empty: no omni frame in this row
-  char persp_file[kMaxCsvField + 1] = {};
-};
-
-/// Parses one data row (no line terminator). Errors (kInvalidArgument) name the bad column.
-Status ParseFramesRow(const char* line, size_t len, FramesRow& out);
-/// True if `line` is the expected header "index,t_us,omni_file,persp_file".
-bool IsFramesHeader(const char* line, size_t len);
+inline constexpr size_t kMaxCsvLine = 256;
 
 /// Reads lines from a semihosting file through a fixed buffer.
 class LineReader {
