@@ -19,6 +19,7 @@
 #include "tools/ballvision/commands.h"
 #include "tools/ballvision/run_common.h"
 #include "tools/ballvision/run_pipeline.h"
+#include "tools/ballvision/truth_csv.h"
 
 namespace bv::cli {
 namespace {
@@ -60,37 +61,57 @@ struct TruthRow {
   double proj_u[2] = {0, 0}, proj_v[2] = {0, 0};  // the centre's exact projection
 };
 
+// Reads one row's optional numbers: absent columns and empty fields are "not given", anything
+// else must be a number (an error names the file, line and column).
+class OptionalNumbers {
+ public:
+  OptionalNumbers(const TruthCsv& t, size_t row, std::string& err) : t_(t), row_(row), err_(err) {}
+  bool Get(const std::string& column, double& v) {
+    if (failed_ || !t_.Has(column) || t_.Empty(row_, column)) return false;
+    double x = 0;
+    if (!t_.Number(row_, column, x, false, err_)) {
+      failed_ = true;
+      return false;
+    }
+    v = x;
+    return true;
+  }
+  bool failed() const { return failed_; }
+
+ private:
+  const TruthCsv& t_;
+  size_t row_;
+  std::string& err_;
+  bool failed_ = false;
+};
+
 bool LoadTruth(const std::string& path, std::map<uint64_t, TruthRow>& out, std::string& err) {
-  CsvTable t;
-  if (!ReadCsv(path, t, err)) return false;
-  for (const auto& row : t.rows) {
-    double ts;
-    if (!Field(row, "t_us", ts)) continue;
+  TruthCsv t;
+  if (!t.Load(path, {"t_us"}, err)) return false;
+  for (size_t i = 0; i < t.rows(); ++i) {
+    int64_t ts = 0;
+    if (!t.Integer(i, "t_us", 0, INT64_MAX, ts, err)) return false;
+    OptionalNumbers f(t, i, err);
     TruthRow r;
-    r.has_pose = Field(row, "robot_field_x", r.rx) && Field(row, "robot_field_y", r.ry) &&
-                 Field(row, "robot_field_heading_deg", r.rh_deg);
-    r.has_ball =
-        Field(row, "ball_x", r.bx) && Field(row, "ball_y", r.by) && Field(row, "ball_z", r.bz);
+    r.has_pose = f.Get("robot_field_x", r.rx) && f.Get("robot_field_y", r.ry) &&
+                 f.Get("robot_field_heading_deg", r.rh_deg);
+    r.has_ball = f.Get("ball_x", r.bx) && f.Get("ball_y", r.by) && f.Get("ball_z", r.bz);
     const char* cams[2] = {"omni", "persp"};
     for (int c = 0; c < 2; ++c) {
+      const std::string cam = cams[c];
       double v = 0;
-      r.vis[c] = Field(row, std::string("visible_") + cams[c], v) && v > 0.5;
-      r.proj[c] = Field(row, std::string("u_") + cams[c], r.proj_u[c]) &&
-                  Field(row, std::string("v_") + cams[c], r.proj_v[c]);
-      Field(row, std::string("cu_") + cams[c], r.cu[c]);
-      Field(row, std::string("cv_") + cams[c], r.cv[c]);
-      Field(row, std::string("area_") + cams[c], r.area[c]);
-      if (!Field(row, std::string("fullcu_") + cams[c], r.full_cu[c]) ||
-          !Field(row, std::string("fullcv_") + cams[c], r.full_cv[c])) {
+      r.vis[c] = f.Get("visible_" + cam, v) && v > 0.5;
+      r.proj[c] = f.Get("u_" + cam, r.proj_u[c]) && f.Get("v_" + cam, r.proj_v[c]);
+      f.Get("cu_" + cam, r.cu[c]);
+      f.Get("cv_" + cam, r.cv[c]);
+      f.Get("area_" + cam, r.area[c]);
+      if (!f.Get("fullcu_" + cam, r.full_cu[c]) || !f.Get("fullcv_" + cam, r.full_cv[c])) {
         r.full_cu[c] = r.cu[c];
         r.full_cv[c] = r.cv[c];
       }
     }
+    if (f.failed()) return false;
     out[static_cast<uint64_t>(ts)] = r;
-  }
-  if (out.empty()) {
-    err = path + ": no rows with t_us";
-    return false;
   }
   return true;
 }
@@ -101,16 +122,17 @@ struct RobotTruth {
 
 bool LoadRobots(const std::string& path, std::map<int64_t, std::vector<RobotTruth>>& out,
                 std::string& err) {
-  CsvTable t;
-  if (!ReadCsv(path, t, err)) return false;
-  for (const auto& row : t.rows) {
-    double i, x, y, r;
-    if (!Field(row, "index", i) || !Field(row, "x", x) || !Field(row, "y", y) ||
-        !Field(row, "radius", r)) {
-      err = path + ": a row without index, x, y, radius";
+  TruthCsv t;
+  if (!t.Load(path, {"index", "x", "y", "radius"}, err)) return false;
+  for (size_t i = 0; i < t.rows(); ++i) {
+    int64_t index = 0;
+    RobotTruth r{};
+    if (!t.Integer(i, "index", INT64_MIN, INT64_MAX, index, err) ||
+        !t.Number(i, "x", r.x, false, err) || !t.Number(i, "y", r.y, false, err) ||
+        !t.Number(i, "radius", r.radius, false, err)) {
       return false;
     }
-    out[static_cast<int64_t>(i)].push_back({x, y, r});
+    out[index].push_back(r);
   }
   return true;
 }

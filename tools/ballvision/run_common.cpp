@@ -191,34 +191,4 @@ bool PlotPng(const std::string& path, const std::string& title, const std::strin
   return true;
 }
 
-bool ReadCsv(const std::string& path, CsvTable& out, std::string& error) {
-  std::ifstream in(path);
-  if (!in) {
-    error = path + ": cannot open";
-    return false;
-  }
-  std::string line;
-  if (!std::getline(in, line)) {
-    error = path + ": empty";
-    return false;
-  }
-  out.header = host::SplitCsvLine(line);
-  while (std::getline(in, line)) {
-    if (line.empty()) continue;
-    const auto f = host::SplitCsvLine(line);
-    std::map<std::string, std::string> row;
-    for (size_t i = 0; i < out.header.size() && i < f.size(); ++i) row[out.header[i]] = f[i];
-    out.rows.push_back(std::move(row));
-  }
-  return true;
-}
-
-bool Field(const std::map<std::string, std::string>& row, const std::string& key, double& v) {
-  const auto it = row.find(key);
-  if (it == row.end() || it->second.empty()) return false;
-  char* end = nullptr;
-  v = std::strtod(it->second.c_str(), &end);
-  return end != it->second.c_str() && std::isfinite(v);
-}
-
 }  // namespace bv::cli

@@ -32,13 +32,4 @@ bool PlotPng(const std::string& path, const std::string& title, const std::strin
              const std::string& ylabel, const std::vector<PlotSeries>& series, std::string& error,
              double y_min = 0, double y_max = 0);
 
-/// A CSV file as rows of named string fields.
-struct CsvTable {
-  std::vector<std::string> header;
-  std::vector<std::map<std::string, std::string>> rows;
-};
-bool ReadCsv(const std::string& path, CsvTable& out, std::string& error);
-/// Number from a field; false when missing or empty.
-bool Field(const std::map<std::string, std::string>& row, const std::string& key, double& v);
-
 }  // namespace bv::cli
