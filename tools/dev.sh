@@ -14,7 +14,7 @@ PACKAGES=(
   gcc-arm-none-eabi binutils-arm-none-eabi libnewlib-arm-none-eabi libstdc++-arm-none-eabi-newlib
   qemu-system-arm
   python3 python3-numpy python3-matplotlib python3-serial
-  clang libclang-rt-14-dev cppcheck clang-tidy clang-format
+  clang libclang-rt-14-dev cppcheck clang-tidy clang-format universal-ctags
 )
 
 deps() {
