@@ -20,6 +20,7 @@
 #include "tools/ballvision/demo_scene.h"
 #include "tools/ballvision/run_common.h"
 #include "tools/ballvision/run_pipeline.h"
+#include "tools/ballvision/truth_csv.h"
 
 namespace bv {
 namespace {
@@ -197,8 +198,16 @@ struct SimRun {
   std::unique_ptr<ColorLut> lut = std::make_unique<ColorLut>();
   std::unique_ptr<Pipeline> pipeline = std::make_unique<Pipeline>();
   std::vector<cli::FrameRecord> recs;
-  cli::CsvTable truth;
+  cli::TruthCsv truth;
 };
+
+// A number of truth.csv or states.csv that the test needs (a missing one fails the test).
+double Num(const cli::TruthCsv& t, size_t row, const char* column) {
+  double v = NAN;
+  std::string err;
+  EXPECT_TRUE(t.Number(row, column, v, false, err)) << err;
+  return v;
+}
 
 void RunSim(const char* scene, bool stills, SimRun& r) {
   std::string err, used;
@@ -210,8 +219,10 @@ void RunSim(const char* scene, bool stills, SimRun& r) {
   cli::RunSettings rs;
   rs.reset_each_frame = stills;
   ASSERT_TRUE(cli::RunSequence(seq, *r.pipeline, rs, r.recs, err)) << err;
-  ASSERT_TRUE(cli::ReadCsv(SimDir(scene) + "/truth.csv", r.truth, err)) << err;
-  ASSERT_EQ(r.truth.rows.size(), r.recs.size());
+  ASSERT_TRUE(
+      r.truth.Load(SimDir(scene) + "/truth.csv", {"t_us", "ball_x", "ball_y", "ball_z"}, err))
+      << err;
+  ASSERT_EQ(r.truth.rows(), r.recs.size());
 }
 
 TEST(PipelineSim, StaticGridMeetsTheAccuracyGoals) {
@@ -222,10 +233,8 @@ TEST(PipelineSim, StaticGridMeetsTheAccuracyGoals) {
   RunSim("static_grid", true, r);
   std::map<double, std::vector<double>> near;  // height -> errors at <= 2 m
   for (size_t i = 0; i < r.recs.size(); ++i) {
-    double x, y, z;
-    ASSERT_TRUE(cli::Field(r.truth.rows[i], "ball_x", x) &&
-                cli::Field(r.truth.rows[i], "ball_y", y) &&
-                cli::Field(r.truth.rows[i], "ball_z", z));
+    const double x = Num(r.truth, i, "ball_x"), y = Num(r.truth, i, "ball_y"),
+                 z = Num(r.truth, i, "ball_z");
     const MeasurementInfo& m = r.recs[i].meas;
     ASSERT_TRUE(m.valid) << "frame " << r.recs[i].index;
     const double e = (m.p_m - Eigen::Vector3f(x, y, z)).norm();
@@ -254,17 +263,18 @@ TEST(PipelineSim, TheGoalBehindTheRobotIsFoundAndNamedByThePose) {
   ASSERT_TRUE(cli::LoadLutOrDefault("", kRefCalib, *r.lut, used, err)) << err;
   ASSERT_TRUE(r.pipeline->Init(r.cal, *r.lut, PipelineConfig{}).ok());
   ASSERT_TRUE(r.pipeline->SetFieldHalf(-1).ok());
-  ASSERT_TRUE(cli::ReadCsv(SimDir("static_grid") + "/truth.csv", r.truth, err)) << err;
+  ASSERT_TRUE(r.truth.Load(SimDir("static_grid") + "/truth.csv",
+                           {"robot_field_x", "robot_field_y", "robot_field_heading_deg"}, err))
+      << err;
   host::Sequence seq;
   ASSERT_TRUE(host::LoadSequence(SimDir("static_grid"), seq, err)) << err;
   int frames = 0, seen = 0, named = 0, refused = 0, kept_in_goal = 0;
   cli::RunSettings rs;
   rs.reset_each_frame = true;
   rs.on_frame = [&](const Pipeline& p, const cli::FrameRecord&) {
-    const auto& row = r.truth.rows[static_cast<size_t>(frames++)];
-    double rx, ry, rh_deg;
-    ASSERT_TRUE(cli::Field(row, "robot_field_x", rx) && cli::Field(row, "robot_field_y", ry) &&
-                cli::Field(row, "robot_field_heading_deg", rh_deg));
+    const size_t row = static_cast<size_t>(frames++);
+    const double rx = Num(r.truth, row, "robot_field_x"), ry = Num(r.truth, row, "robot_field_y"),
+                 rh_deg = Num(r.truth, row, "robot_field_heading_deg");
     // The mouth centre (-9, 0) in the robot frame (heading = field angle of robot +y).
     const double h = rh_deg * M_PI / 180.0, dx = -9.0 - rx, dy = -ry;
     const double mx = dx * std::sin(h) - dy * std::cos(h), my = dx * std::cos(h) + dy * std::sin(h);
@@ -303,12 +313,10 @@ TEST(PipelineSim, BounceIsTrackedAndPredicted) {
   SimRun r;
   RunSim("bounce", false, r);
   std::map<uint64_t, Eigen::Vector3f> truth;
-  for (const auto& row : r.truth.rows) {
-    double t, x, y, z;
-    if (cli::Field(row, "t_us", t) && cli::Field(row, "ball_x", x) &&
-        cli::Field(row, "ball_y", y) && cli::Field(row, "ball_z", z)) {
-      truth[static_cast<uint64_t>(t)] = Eigen::Vector3f(x, y, z);
-    }
+  for (size_t i = 0; i < r.truth.rows(); ++i) {
+    if (r.truth.Empty(i, "ball_x")) continue;  // no ball in this frame
+    truth[static_cast<uint64_t>(Num(r.truth, i, "t_us"))] = Eigen::Vector3f(
+        Num(r.truth, i, "ball_x"), Num(r.truth, i, "ball_y"), Num(r.truth, i, "ball_z"));
   }
   std::vector<double> state_err, pred_err;
   bool bouncing = false;
@@ -364,8 +372,8 @@ TEST(PipelineCli, RunWritesTheDesignColumns) {
       "run",   seq.c_str(), "--calib",      calib.c_str(), "--lut", lut_path.c_str(),
       "--out", out.c_str(), "--predict-ms", "200"};
   ASSERT_EQ(cli::CmdRun(10, const_cast<char**>(argv)), 0);
-  cli::CsvTable t;
-  ASSERT_TRUE(cli::ReadCsv(out, t, err)) << err;
+  cli::TruthCsv t;
+  ASSERT_TRUE(t.Load(out, {}, err)) << err;
   const std::vector<std::string> want = {"index",   "t_us",
                                          "found",   "x",
                                          "y",       "z",
@@ -379,13 +387,13 @@ TEST(PipelineCli, RunWritesTheDesignColumns) {
                                          "sigma_x", "sigma_y",
                                          "sigma_z", "pose_x",
                                          "pose_y",  "pose_heading_deg"};
-  EXPECT_EQ(t.header, want);
-  ASSERT_EQ(t.rows.size(), 8u);
-  EXPECT_EQ(t.rows[0].at("index"), "10");
-  EXPECT_EQ(t.rows[5].at("persp_u"), "");  // no persp frame in row 5
-  for (const auto& row : t.rows) {
-    EXPECT_EQ(row.at("found"), "1");
-    EXPECT_EQ(row.at("pose_x"), "");  // the demo's two lines fit many places: no pose
+  EXPECT_EQ(t.header(), want);
+  ASSERT_EQ(t.rows(), 8u);
+  EXPECT_EQ(t.Text(0, "index"), "10");
+  EXPECT_EQ(t.Text(5, "persp_u"), "");  // no persp frame in row 5
+  for (size_t i = 0; i < t.rows(); ++i) {
+    EXPECT_EQ(t.Text(i, "found"), "1");
+    EXPECT_EQ(t.Text(i, "pose_x"), "");  // the demo's two lines fit many places: no pose
   }
   // Usage errors exit with 2.
   const char* bad[] = {"run", seq.c_str()};

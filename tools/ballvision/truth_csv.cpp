@@ -19,6 +19,7 @@ std::string Shown(const std::string& s) {
 bool TruthCsv::Load(const std::string& path, const std::vector<std::string>& required,
                     std::string& error) {
   path_ = path;
+  header_.clear();
   col_.clear();
   rows_.clear();
   line_.clear();
@@ -32,7 +33,8 @@ bool TruthCsv::Load(const std::string& path, const std::vector<std::string>& req
     error = path + ":1: empty file, expected a header line";
     return false;
   }
-  const auto header = host::SplitCsvLine(line);
+  header_ = host::SplitCsvLine(line);
+  const auto& header = header_;
   for (size_t i = 0; i < header.size(); ++i) col_[header[i]] = i;
   for (const std::string& need : required) {
     if (!col_.count(need)) {

@@ -16,6 +16,8 @@ class TruthCsv {
   bool Load(const std::string& path, const std::vector<std::string>& required, std::string& error);
   size_t rows() const { return rows_.size(); }
   bool Has(const std::string& column) const { return col_.count(column) != 0; }
+  /// The header's columns in file order.
+  const std::vector<std::string>& header() const { return header_; }
   /// Raw text of a field ("" for a column the file does not have).
   const std::string& Text(size_t row, const std::string& column) const;
   bool Empty(size_t row, const std::string& column) const { return Text(row, column).empty(); }
@@ -30,6 +32,7 @@ class TruthCsv {
 
  private:
   std::string path_;
+  std::vector<std::string> header_;
   std::map<std::string, size_t> col_;
   std::vector<std::vector<std::string>> rows_;
   std::vector<int> line_;
