@@ -21,6 +21,7 @@
 #include "tools/ballvision/cli_args.h"
 #include "tools/ballvision/commands.h"
 #include "tools/ballvision/demo_scene.h"
+#include "tools/ballvision/plot.h"
 #include "tools/ballvision/run_common.h"
 #include "tools/ballvision/run_pipeline.h"
 #include "tools/ballvision/safe_write.h"
@@ -257,6 +258,23 @@ double Dist3(const Eigen::Vector3f& p, const Truth& t) {
                    (p.z() - t.z) * (p.z() - t.z));
 }
 
+std::string Joined(const std::vector<std::string>& files) {
+  std::string out;
+  for (const auto& f : files) out += (out.empty() ? "" : ", ") + f;
+  return out;
+}
+
+// What a plot request wrote (PNGs, or tables and why) or why it failed; the figures printed
+// before stand either way, so eval carries on.
+void PrintPlots(const char* cmd, const PlotOutcome& o) {
+  if (!o.ok) {
+    std::fprintf(stderr, "%s: %s\n", cmd, o.error.c_str());
+    return;
+  }
+  if (!o.note.empty()) std::fprintf(stderr, "%s: %s\n", cmd, o.note.c_str());
+  std::printf("wrote %s\n", Joined(o.written).c_str());
+}
+
 // Paper Fig. 4: per ball height, the 3D error of the measurement and of the omni-only "2D"
 // estimate against the distance.
 struct GridCell {
@@ -379,17 +397,13 @@ void EvalGrid(const Args& a, const std::vector<GridRow>& grid, const std::vector
   for (const auto& s : series) {
     if (s.style != PlotSeries::kDashed) only3d.push_back(s);
   }
-  std::string err;
   const std::string path = a.plots + "/fig4_error_vs_distance.png";
   const std::string zoom = a.plots + "/fig4_error_vs_distance_3d_only.png";
-  if (PlotPng(path, "3D error vs distance (static grid), dashed: omni only + floor", "distance [m]",
-              "error [cm]", series, err) &&
-      PlotPng(zoom, "3D error vs distance (static grid), stereo only", "distance [m]", "error [cm]",
-              only3d, err)) {
-    std::printf("wrote %s, %s\n", path.c_str(), zoom.c_str());
-  } else {
-    std::fprintf(stderr, "%s\n", err.c_str());
-  }
+  PrintPlots("ballvision eval",
+             WritePlots({{path, "3D error vs distance (static grid), dashed: omni only + floor",
+                          "distance [m]", "error [cm]", series},
+                         {zoom, "3D error vs distance (static grid), stereo only", "distance [m]",
+                          "error [cm]", only3d}}));
 }
 
 // truth.csv, and grid.csv when the sequence is the static grid (`grid` left empty otherwise).
@@ -666,17 +680,14 @@ void PlotEvalFig5(const std::string& dir, const std::vector<FrameRecord>& recs,
                 60,
                 220};
   pz.style = PlotSeries::kDashed;
-  std::string err;
-  const std::string p1 = dir + "/fig5_height_velocity.png";
-  const std::string p2 = dir + "/fig5_prediction.png";
-  if (PlotPng(p1, "Height [m] and vertical velocity [m/s]", "time [s]", "z [m], vz [m/s]", f5,
-              err) &&
-      PlotPng(p2, "Height predicted into the future", "time [s]", "z [m]", {f5[0], f5[1], pz},
-              err)) {
-    std::printf("wrote %s, %s\n", p1.c_str(), p2.c_str());
-  } else {
-    std::fprintf(stderr, "%s\n", err.c_str());
-  }
+  PrintPlots("ballvision eval", WritePlots({{dir + "/fig5_height_velocity.png",
+                                             "Height [m] and vertical velocity [m/s]", "time [s]",
+                                             "z [m], vz [m/s]", f5},
+                                            {dir + "/fig5_prediction.png",
+                                             "Height predicted into the future",
+                                             "time [s]",
+                                             "z [m]",
+                                             {f5[0], f5[1], pz}}}));
 }
 
 }  // namespace
@@ -894,22 +905,25 @@ int CmdDemo(int argc, char** argv) {
   const std::vector<PlotSeries> f5 = Fig5Series(lob.t_s, lob.z, lob.vz, lob.recs);
   PlotSeries pz{"prediction made at 0.9 s", lob.pred.t_s, lob.pred.z, 30, 60, 220};
   pz.style = PlotSeries::kDashed;
-  const std::string f4 = dir + "/demo_fig4_error_vs_distance.png";
-  const std::string f5a = dir + "/demo_fig5_height_velocity.png";
-  const std::string f5b = dir + "/demo_fig5_prediction.png";
-  if (!PlotPng(f4, "Demo: 3D error vs distance (built-in scene)", "distance [m]", "error [cm]",
-               Fig4Series(grid), err) ||
-      !PlotPng(f5a, "Demo lob: height [m] and vertical velocity [m/s]", "time [s]",
-               "z [m], vz [m/s]", f5, err) ||
-      !PlotPng(f5b, "Demo lob: height predicted from t = 0.9 s", "time [s]", "z [m]",
-               {f5[0], f5[1], pz}, err)) {
-    std::fprintf(stderr, "ballvision demo: %s\n", err.c_str());
+  const PlotOutcome plots = WritePlots(
+      {{dir + "/demo_fig4_error_vs_distance.png", "Demo: 3D error vs distance (built-in scene)",
+        "distance [m]", "error [cm]", Fig4Series(grid)},
+       {dir + "/demo_fig5_height_velocity.png", "Demo lob: height [m] and vertical velocity [m/s]",
+        "time [s]", "z [m], vz [m/s]", f5},
+       {dir + "/demo_fig5_prediction.png",
+        "Demo lob: height predicted from t = 0.9 s",
+        "time [s]",
+        "z [m]",
+        {f5[0], f5[1], pz}}});
+  if (!plots.ok) {
+    std::fprintf(stderr, "ballvision demo: %s\n", plots.error.c_str());
     return 1;
   }
+  if (!plots.note.empty()) std::fprintf(stderr, "ballvision demo: %s\n", plots.note.c_str());
   const double secs =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
-  std::printf("\nwrote %s/states.csv, %s, %s, %s (%.1f s)\n", dir.c_str(), f4.c_str(), f5a.c_str(),
-              f5b.c_str(), secs);
+  std::printf("\nwrote %s/states.csv, %s (%.1f s)\n", dir.c_str(), Joined(plots.written).c_str(),
+              secs);
   return 0;
 }
 

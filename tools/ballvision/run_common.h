@@ -1,6 +1,5 @@
 #pragma once
-// Shared pieces of `run`, `eval` and `demo`: colour LUT lookup, a PNG line plotter (OpenCV,
-// so the demo needs nothing but the binary), truth.csv reading and small statistics.
+// Shared pieces of `run`, `eval` and `demo`: the colour LUT they run with.
 #include <cstdint>
 #include <map>
 #include <string>
@@ -20,16 +19,5 @@ void FillBuiltInLut(ColorLut& lut);
 /// then the built-in colour model ("builtin" asks for it). `used` describes what was taken.
 bool LoadLutOrDefault(const std::string& path, const std::string& calib_path, ColorLut& lut,
                       std::string& used, std::string& error);
-
-struct PlotSeries {
-  std::string name;
-  std::vector<double> x, y;
-  uint8_t r = 0, g = 0, b = 0;
-  enum Style { kLine, kPoints, kDashed, kLinePoints } style = kLine;
-};
-/// Writes a PNG line plot (axes with ticks, legend). Returns false with `error` set on failure.
-bool PlotPng(const std::string& path, const std::string& title, const std::string& xlabel,
-             const std::string& ylabel, const std::vector<PlotSeries>& series, std::string& error,
-             double y_min = 0, double y_max = 0);
 
 }  // namespace bv::cli
