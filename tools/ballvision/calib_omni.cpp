@@ -76,6 +76,41 @@ void PrintResiduals(const Residuals& res) {
               100 * res.rms_ground_rel, 100 * res.symmetric_rms_ground_rel);
 }
 
+void PrintRefinement(const AngleRefinement& refined, const AngleFit& angle) {
+  if (refined.applied) {
+    std::printf("angle offset refined by %+.3f deg from the strip sides (%zu fans): %+.3f deg\n",
+                refined.correction_rad * 180 / kPi, refined.fans, angle.offset_rad * 180 / kPi);
+  }
+  if (refined.harmonics) {
+    std::printf(
+        "azimuth harmonics (mirror tilt) a1 %+.2f b1 %+.2f a2 %+.2f b2 %+.2f mrad: fan residual "
+        "rms %.2f -> %.2f mrad (%zu outliers)\n",
+        angle.harmonics_rad[0] * 1e3, angle.harmonics_rad[1] * 1e3, angle.harmonics_rad[2] * 1e3,
+        angle.harmonics_rad[3] * 1e3, refined.rms_before_rad * 1e3, refined.rms_after_rad * 1e3,
+        refined.harmonic_outliers);
+  } else if (refined.applied) {
+    std::printf("azimuth harmonics not fitted: %zu fans, largest direction gap %.0f deg\n",
+                refined.fans, refined.max_gap_rad * 180 / kPi);
+  }
+}
+
+// Centre, viewpoint, image angle and edge distances; the support vectors come from the sectors.
+OmniCalibration FittedGeometry(const RimFit& rim, const AngleFit& angle, const EdgeChoice& edges,
+                               double f_o) {
+  OmniCalibration cal;
+  cal.valid = true;
+  cal.center_u = static_cast<float>(rim.cu);
+  cal.center_v = static_cast<float>(rim.cv);
+  cal.viewpoint_z_m = static_cast<float>(f_o);
+  cal.image_angle_sign = static_cast<int8_t>(angle.sign);
+  cal.image_angle_offset_rad = static_cast<float>(angle.offset_rad);
+  for (int k = 0; k < 4; ++k) {
+    cal.azimuth_harmonics_rad[k] = static_cast<float>(angle.harmonics_rad[k]);
+  }
+  for (int k = 0; k < kEdges; ++k) cal.edge_ground_m[k] = static_cast<float>(edges.edge_m[k]);
+  return cal;
+}
+
 }  // namespace
 
 int CalibrateOmni(int argc, char** argv) {
@@ -104,21 +139,7 @@ int CalibrateOmni(int argc, char** argv) {
   std::printf("image angle = %+d * robot azimuth %+.2f deg (consistency %.4f over %zu frames)\n",
               angle.sign, angle.offset_rad * 180 / kPi, angle.consistency, frames.size());
   const AngleRefinement refined = RefineAngleOffset(frames, carpet, anchor, rim, angle);
-  if (refined.applied) {
-    std::printf("angle offset refined by %+.3f deg from the strip sides (%zu fans): %+.3f deg\n",
-                refined.correction_rad * 180 / kPi, refined.fans, angle.offset_rad * 180 / kPi);
-  }
-  if (refined.harmonics) {
-    std::printf(
-        "azimuth harmonics (mirror tilt) a1 %+.2f b1 %+.2f a2 %+.2f b2 %+.2f mrad: fan residual "
-        "rms %.2f -> %.2f mrad (%zu outliers)\n",
-        angle.harmonics_rad[0] * 1e3, angle.harmonics_rad[1] * 1e3, angle.harmonics_rad[2] * 1e3,
-        angle.harmonics_rad[3] * 1e3, refined.rms_before_rad * 1e3, refined.rms_after_rad * 1e3,
-        refined.harmonic_outliers);
-  } else if (refined.applied) {
-    std::printf("azimuth harmonics not fitted: %zu fans, largest direction gap %.0f deg\n",
-                refined.fans, refined.max_gap_rad * 180 / kPi);
-  }
+  PrintRefinement(refined, angle);
 
   const RawSamples raw = CollectSamples(frames, carpet, anchor, rim, angle, a.f_o);
   EdgeChoice edges;
@@ -132,18 +153,7 @@ int CalibrateOmni(int argc, char** argv) {
                  edges.samples.size());
   }
 
-  OmniCalibration cal;
-  cal.valid = true;
-  cal.center_u = static_cast<float>(rim.cu);
-  cal.center_v = static_cast<float>(rim.cv);
-  cal.viewpoint_z_m = static_cast<float>(a.f_o);
-  cal.image_angle_sign = static_cast<int8_t>(angle.sign);
-  cal.image_angle_offset_rad = static_cast<float>(angle.offset_rad);
-  for (int k = 0; k < 4; ++k) {
-    cal.azimuth_harmonics_rad[k] = static_cast<float>(angle.harmonics_rad[k]);
-  }
-  for (int k = 0; k < kEdges; ++k) cal.edge_ground_m[k] = static_cast<float>(edges.edge_m[k]);
-
+  OmniCalibration cal = FittedGeometry(rim, angle, edges, a.f_o);
   SectorFit sectors = FitSectors(edges.samples, edges.first, edges.edge_m);
   std::printf("%d support vectors rejected as inconsistent with their neighbours\n",
               RejectInconsistent(sectors));

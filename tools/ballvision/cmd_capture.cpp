@@ -74,28 +74,47 @@ std::string JsonString(const std::string& s) {
   return out + "\"";
 }
 
-}  // namespace
+// Why the coprocessor refused a command (protocol ErrorCode), by code.
+const char* const kRefusalWhy[] = {"",
+                                   "unknown command",
+                                   "bad length",
+                                   "",
+                                   "",
+                                   "",
+                                   "",
+                                   "",
+                                   "",
+                                   "",
+                                   "bad value",
+                                   "",
+                                   "busy: a capture is running",
+                                   "this board cannot capture",
+                                   ""};
 
-int CmdCapture(int argc, char** argv) {
-  std::string source, out_dir, err;
+struct CaptureArgs {
+  std::string source, out_dir;
   int64_t pairs = 1;
   long baud = 921600;
-  double seconds = 0;
+  double seconds = 0;  // 0: as long as the request takes (DefaultSeconds)
   protocol::CaptureMode mode = protocol::CaptureMode::kFull;
   uint8_t cameras = protocol::kCaptureOmni | protocol::kCapturePersp;
+};
+
+// Returns -1 to go on, else the exit code.
+int ParseCaptureArgs(int argc, char** argv, CaptureArgs& a) {
   ArgParser args("ballvision capture", kCaptureUsage);
-  args.Positional("SOURCE", source)
-      .Text("--out", out_dir)
+  args.Positional("SOURCE", a.source)
+      .Text("--out", a.out_dir)
       .Required("--out")
-      .Int("--pairs", 1, protocol::kMaxCapturePairs, pairs)
+      .Int("--pairs", 1, protocol::kMaxCapturePairs, a.pairs)
       .Custom("--mode",
-              [&mode](const std::string& v, std::string& error) {
+              [&a](const std::string& v, std::string& error) {
                 if (v == "full") {
-                  mode = protocol::CaptureMode::kFull;
+                  a.mode = protocol::CaptureMode::kFull;
                 } else if (v == "half") {
-                  mode = protocol::CaptureMode::kHalf;
+                  a.mode = protocol::CaptureMode::kHalf;
                 } else if (v == "quarter") {
-                  mode = protocol::CaptureMode::kQuarter;
+                  a.mode = protocol::CaptureMode::kQuarter;
                 } else {
                   error = "--mode: got '" + v + "', expected full, half or quarter";
                   return false;
@@ -103,28 +122,32 @@ int CmdCapture(int argc, char** argv) {
                 return true;
               })
       .Custom("--cameras",
-              [&cameras](const std::string& v, std::string& error) {
+              [&a](const std::string& v, std::string& error) {
                 if (v == "both") {
-                  cameras = protocol::kCaptureOmni | protocol::kCapturePersp;
+                  a.cameras = protocol::kCaptureOmni | protocol::kCapturePersp;
                 } else if (v == "omni") {
-                  cameras = protocol::kCaptureOmni;
+                  a.cameras = protocol::kCaptureOmni;
                 } else if (v == "persp") {
-                  cameras = protocol::kCapturePersp;
+                  a.cameras = protocol::kCapturePersp;
                 } else {
                   error = "--cameras: got '" + v + "', expected both, omni or persp";
                   return false;
                 }
                 return true;
               })
-      .Int("--baud", 1, 4000000, baud)
-      .Number("--seconds", 0.1, 1e6, seconds);
-  if (const int rc = args.Parse(argc, argv); rc >= 0) return rc;
+      .Int("--baud", 1, 4000000, a.baud)
+      .Number("--seconds", 0.1, 1e6, a.seconds);
+  return args.Parse(argc, argv);
+}
+
+// A new directory, or one without a sequence in it; false (printed) otherwise.
+bool PrepareOutDir(const std::string& out_dir) {
   struct stat st {};
   if (lstat(out_dir.c_str(), &st) == 0) {
     if (!S_ISDIR(st.st_mode)) {
       std::fprintf(stderr, "ballvision capture: %s exists and is not a directory\n",
                    out_dir.c_str());
-      return 1;
+      return false;
     }
     const std::string csv = out_dir + "/frames.csv";
     if (access(csv.c_str(), F_OK) == 0) {
@@ -132,180 +155,246 @@ int CmdCapture(int argc, char** argv) {
                    "ballvision capture: %s already holds a sequence (frames.csv); "
                    "choose a new directory\n",
                    out_dir.c_str());
-      return 1;
+      return false;
     }
   } else if (mkdir(out_dir.c_str(), 0777) != 0) {
     std::fprintf(stderr, "ballvision capture: cannot create %s: %s\n", out_dir.c_str(),
                  std::strerror(errno));
-    return 1;
+    return false;
+  }
+  return true;
+}
+
+// False (printed) when the request cannot be sent.
+bool SendRequest(int fd, const CaptureArgs& a) {
+  uint8_t p[protocol::kCaptureStartBytes] = {static_cast<uint8_t>(a.pairs & 0xFF),
+                                             static_cast<uint8_t>(a.pairs >> 8),
+                                             static_cast<uint8_t>(a.mode), a.cameras};
+  uint8_t wire[64];
+  const Result<size_t> n =
+      protocol::EncodeFrame(protocol::MsgType::kCaptureStart, kRequestSeq, p, wire);
+  if (!n.ok() || write(fd, wire, *n) != static_cast<ssize_t>(*n)) {
+    std::fprintf(stderr, "ballvision capture: cannot send the request to %s: %s\n",
+                 a.source.c_str(), std::strerror(errno));
+    return false;
+  }
+  return true;
+}
+
+double DefaultSeconds(const CaptureArgs& a) {
+  // A full-size pair is ~14 s of link time at 921600 Bd; allow twice that.
+  const double pair_s = 2.0 * 1.23e6 / (a.baud / 10.0) /
+                        (a.mode == protocol::CaptureMode::kFull   ? 1.0
+                         : a.mode == protocol::CaptureMode::kHalf ? 4.0
+                                                                  : 16.0);
+  return 5.0 + static_cast<double>(a.pairs) * pair_s;
+}
+
+// An error packet answering a capture request: its request's seq and why.
+bool ParseRefusal(const protocol::FrameView& frame, uint32_t& cmd_seq, std::string& why) {
+  if (frame.type != protocol::MsgType::kError || frame.payload.size() != 10 ||
+      frame.payload[0] != static_cast<uint8_t>(protocol::MsgType::kCaptureStart)) {
+    return false;
+  }
+  const uint8_t code = frame.payload[5];
+  cmd_seq = frame.payload[1] | (frame.payload[2] << 8) | (frame.payload[3] << 16) |
+            (uint32_t{frame.payload[4]} << 24);
+  why = code < 15 ? kRefusalWhy[code] : "error";
+  return true;
+}
+
+// Decodes the stream, writes each complete pair's images as it arrives and collects the rows of
+// frames.csv and capture.csv.
+struct CaptureReceiver {
+  const std::string& out_dir;
+  bool writable;  // our request was sent: its refusal ends the capture
+  tools::CaptureCollector collector;
+  protocol::Decoder decoder;
+  protocol::FrameView frame;
+  std::string frames_rows, capture_rows, refusal, message;
+  std::string write_error;  // the image write that failed
+  uint32_t written = 0, bad = 0;
+  bool write_failed = false, done = false;
+
+  void Feed(const uint8_t* bytes, size_t n) {
+    for (size_t i = 0; i < n && !done && !write_failed; ++i) {
+      if (decoder.Push(bytes[i], frame)) Handle();
+    }
   }
 
+  void Handle() {
+    uint32_t cmd_seq = 0;
+    std::string why;
+    if (ParseRefusal(frame, cmd_seq, why)) {
+      if (writable && cmd_seq == kRequestSeq) {  // ours: nothing will come
+        refusal = why;
+        std::fprintf(stderr, "ballvision capture: the coprocessor refused the request: %s\n",
+                     why.c_str());
+        done = true;
+        return;
+      }
+      // In a recording: another request was refused; the capture may still be in it.
+      std::fprintf(stderr, "ballvision capture: note: capture request seq %u refused: %s\n",
+                   cmd_seq, why.c_str());
+      return;
+    }
+    const auto ev = collector.Feed(frame, message);
+    if (!message.empty()) std::fprintf(stderr, "ballvision capture: %s\n", message.c_str());
+    if (ev == tools::CaptureCollector::Event::kBadPacket) ++bad;
+    if (ev == tools::CaptureCollector::Event::kEnd) done = true;
+    if (ev == tools::CaptureCollector::Event::kPairComplete) WritePair();
+  }
+
+  void WritePair() {
+    const tools::CapturedPair& pair = collector.pair();
+    const protocol::CaptureFrame& f = pair.frame;
+    // The device's frame counter as the index (the original sequence's index on a replay):
+    // the captured sequence lines up with the frames it came from.
+    const uint32_t index = pair.image[0].empty() ? f.persp_sequence : f.omni_sequence;
+    std::string names[2];
+    for (int c = 0; c < 2 && !write_failed; ++c) {
+      if (pair.image[c].empty()) continue;
+      names[c] = std::string(c ? "persp_" : "omni_") + std::to_string(index) + ".yuyv";
+      if (!WriteFileAtomic(out_dir + "/" + names[c], tools::UpsampleCapture(pair.image[c], f.mode),
+                           write_error)) {
+        std::fprintf(stderr, "ballvision capture: %s\n", write_error.c_str());
+        write_failed = true;
+      }
+    }
+    if (write_failed) return;
+    frames_rows += std::to_string(index) + "," + std::to_string(f.exposure_us) + "," + names[0] +
+                   "," + names[1] + "\n";
+    capture_rows += std::to_string(index) + "," + std::to_string(f.pair_index) + "," +
+                    std::to_string(f.exposure_us) + "," +
+                    (names[0].empty() ? "" : std::to_string(f.omni_exposure_us)) + "," +
+                    (names[1].empty() ? "" : std::to_string(f.persp_exposure_us)) + "," +
+                    (names[0].empty() ? "" : std::to_string(f.omni_sequence)) + "," +
+                    (names[1].empty() ? "" : std::to_string(f.persp_sequence)) + "\n";
+    ++written;
+    std::printf("pair %u (frame %u): t %.6f s, %s%s\n", f.pair_index, index, f.exposure_us * 1e-6,
+                names[0].empty() ? "" : "omni ", names[1].empty() ? "" : "persp");
+    std::fflush(stdout);
+  }
+};
+
+// Reads until the capture ends, the source ends, `seconds` pass or a signal arrives.
+void Receive(int fd, double seconds, CaptureReceiver& rx) {
+  const auto start = std::chrono::steady_clock::now();
+  uint8_t buf[4096];
+  while (!rx.done && !rx.write_failed) {
+    const ssize_t n = ReadLinkChunk(fd, buf, sizeof buf, start, seconds, "ballvision capture");
+    if (n < 0) break;
+    if (n > 0) rx.Feed(buf, static_cast<size_t>(n));
+  }
+}
+
+// What happened, in one line for capture.json and the summary.
+struct CaptureOutcome {
+  std::string note;  // empty: nothing went wrong
+  uint32_t requested = 0;
+  protocol::CaptureMode mode = protocol::CaptureMode::kFull;
+  bool complete = false;
+};
+
+CaptureOutcome Outcome(const CaptureReceiver& rx, const CaptureArgs& a) {
+  const tools::CaptureCollector& col = rx.collector;
+  CaptureOutcome o;
+  o.requested = col.seen_any() ? col.first().count : static_cast<uint32_t>(a.pairs);
+  o.mode = col.seen_any() ? col.first().mode : a.mode;
+  if (!rx.refusal.empty()) {
+    o.note = "refused by the coprocessor: " + rx.refusal;
+  } else if (!col.seen_any()) {
+    o.note = "no capture packets received";
+  } else if (!col.ended()) {
+    o.note = "cut off: the stream ended before the capture's end packet";
+  } else if (col.end().reason != protocol::CaptureEndReason::kComplete) {
+    o.note = std::string("ended early: ") + EndName(col.end().reason);
+  } else if (col.pairs_broken() > 0) {
+    o.note = std::to_string(col.pairs_broken()) + " pair(s) lost in transmission";
+  }
+  if (rx.write_failed) o.note = "writing the images failed";
+  o.complete = o.note.empty() && rx.written == o.requested;
+  return o;
+}
+
+std::string CaptureJson(const CaptureOutcome& o, const CaptureReceiver& rx) {
+  const tools::CaptureCollector& col = rx.collector;
+  std::string json = "{\n  \"format\": \"ballvision capture\",\n  \"version\": 1,\n";
+  json += "  \"mode\": " + JsonString(ModeName(o.mode)) + ",\n";
+  json += std::string("  \"upsampled_to_640x480\": ") +
+          (o.mode == protocol::CaptureMode::kFull ? "false" : "true") + ",\n";
+  json += "  \"pairs_requested\": " + std::to_string(o.requested) + ",\n";
+  json += "  \"pairs_written\": " + std::to_string(rx.written) + ",\n";
+  json += "  \"pairs_broken\": " + std::to_string(col.pairs_broken()) + ",\n";
+  json += std::string("  \"complete\": ") + (o.complete ? "true" : "false") + ",\n";
+  json +=
+      "  \"end\": " + (col.ended() ? JsonString(EndName(col.end().reason)) : std::string("null")) +
+      ",\n";
+  json += "  \"note\": " + JsonString(o.note) + "\n}\n";
+  return json;
+}
+
+// Every file is written even if one fails (the pairs written stay a valid sequence); the
+// message is the last failure's, the images' when only they failed.
+bool WriteSequenceFiles(const std::string& out_dir, const CaptureOutcome& o,
+                        const CaptureReceiver& rx) {
+  std::string err = rx.write_error;
+  bool ok = !rx.write_failed;
+  ok = WriteFileAtomic(out_dir + "/capture.csv",
+                       "index,pair_index,t_us,omni_exposure_us,persp_exposure_us,"
+                       "omni_sequence,persp_sequence\n" +
+                           rx.capture_rows,
+                       err) &&
+       ok;
+  ok = WriteFileAtomic(out_dir + "/capture.json", CaptureJson(o, rx), err) && ok;
+  ok = WriteFileAtomic(out_dir + "/frames.csv",
+                       "index,t_us,omni_file,persp_file\n" + rx.frames_rows, err) &&
+       ok;
+  if (!ok) std::fprintf(stderr, "ballvision capture: %s\n", err.c_str());
+  return ok;
+}
+
+void PrintSummary(const CaptureOutcome& o, const CaptureReceiver& rx) {
+  std::printf(
+      "summary: pairs_written=%u of %u, broken=%u, bad_packets=%u, decoder_errors=%u, "
+      "%s%s\n",
+      rx.written, o.requested, rx.collector.pairs_broken(), rx.bad, rx.decoder.stats().errors(),
+      o.complete ? "complete" : "INCOMPLETE: ", o.note.c_str());
+}
+
+}  // namespace
+
+int CmdCapture(int argc, char** argv) {
+  CaptureArgs a;
+  if (const int rc = ParseCaptureArgs(argc, argv, a); rc >= 0) return rc;
+  if (!PrepareOutDir(a.out_dir)) return 1;
+  std::string err;
   bool writable = false;
-  const int fd = OpenLink(source, baud, writable, err);
+  const int fd = OpenLink(a.source, a.baud, writable, err);
   if (fd < 0) {
     std::fprintf(stderr, "ballvision capture: %s\n", err.c_str());
     return 1;
   }
   InstallInterruptHandlers();
   if (writable) {
-    uint8_t p[protocol::kCaptureStartBytes] = {static_cast<uint8_t>(pairs & 0xFF),
-                                               static_cast<uint8_t>(pairs >> 8),
-                                               static_cast<uint8_t>(mode), cameras};
-    uint8_t wire[64];
-    const Result<size_t> n =
-        protocol::EncodeFrame(protocol::MsgType::kCaptureStart, kRequestSeq, p, wire);
-    if (!n.ok() || write(fd, wire, *n) != static_cast<ssize_t>(*n)) {
-      std::fprintf(stderr, "ballvision capture: cannot send the request to %s: %s\n",
-                   source.c_str(), std::strerror(errno));
+    if (!SendRequest(fd, a)) {
       close(fd);
       return 1;
     }
-    if (seconds == 0) {
-      // A full-size pair is ~14 s of link time at 921600 Bd; allow twice that.
-      const double pair_s = 2.0 * 1.23e6 / (baud / 10.0) /
-                            (mode == protocol::CaptureMode::kFull   ? 1.0
-                             : mode == protocol::CaptureMode::kHalf ? 4.0
-                                                                    : 16.0);
-      seconds = 5.0 + static_cast<double>(pairs) * pair_s;
-    }
+    if (a.seconds == 0) a.seconds = DefaultSeconds(a);
   }
-
-  tools::CaptureCollector collector;
-  protocol::Decoder decoder;
-  protocol::FrameView frame;
-  std::string frames_rows, capture_rows, message, refusal;
-  uint32_t written = 0, bad = 0;
-  bool write_failed = false;
-  const auto start = std::chrono::steady_clock::now();
-  uint8_t buf[4096];
-  bool done = false;
-  while (!done && !write_failed) {
-    const ssize_t n = ReadLinkChunk(fd, buf, sizeof buf, start, seconds, "ballvision capture");
-    if (n < 0) break;
-    if (n == 0) continue;
-    for (ssize_t i = 0; i < n && !done; ++i) {
-      if (!decoder.Push(buf[i], frame)) continue;
-      if (frame.type == protocol::MsgType::kError && frame.payload.size() == 10 &&
-          frame.payload[0] == static_cast<uint8_t>(protocol::MsgType::kCaptureStart)) {
-        static const char* kWhy[] = {"",
-                                     "unknown command",
-                                     "bad length",
-                                     "",
-                                     "",
-                                     "",
-                                     "",
-                                     "",
-                                     "",
-                                     "",
-                                     "bad value",
-                                     "",
-                                     "busy: a capture is running",
-                                     "this board cannot capture",
-                                     ""};
-        const uint8_t code = frame.payload[5];
-        const uint32_t cmd_seq = frame.payload[1] | (frame.payload[2] << 8) |
-                                 (frame.payload[3] << 16) | (uint32_t{frame.payload[4]} << 24);
-        const std::string why = code < 15 ? kWhy[code] : "error";
-        if (writable && cmd_seq == kRequestSeq) {  // ours: nothing will come
-          refusal = why;
-          std::fprintf(stderr, "ballvision capture: the coprocessor refused the request: %s\n",
-                       why.c_str());
-          done = true;
-          break;
-        }
-        // In a recording: another request was refused; the capture may still be in it.
-        std::fprintf(stderr, "ballvision capture: note: capture request seq %u refused: %s\n",
-                     cmd_seq, why.c_str());
-        continue;
-      }
-      const auto ev = collector.Feed(frame, message);
-      if (!message.empty()) std::fprintf(stderr, "ballvision capture: %s\n", message.c_str());
-      if (ev == tools::CaptureCollector::Event::kBadPacket) ++bad;
-      if (ev == tools::CaptureCollector::Event::kEnd) done = true;
-      if (ev != tools::CaptureCollector::Event::kPairComplete) continue;
-      const tools::CapturedPair& pair = collector.pair();
-      const protocol::CaptureFrame& f = pair.frame;
-      // The device's frame counter as the index (the original sequence's index on a replay):
-      // the captured sequence lines up with the frames it came from.
-      const uint32_t index = pair.image[0].empty() ? f.persp_sequence : f.omni_sequence;
-      std::string names[2];
-      for (int c = 0; c < 2 && !write_failed; ++c) {
-        if (pair.image[c].empty()) continue;
-        names[c] = std::string(c ? "persp_" : "omni_") + std::to_string(index) + ".yuyv";
-        if (!WriteFileAtomic(out_dir + "/" + names[c],
-                             tools::UpsampleCapture(pair.image[c], f.mode), err)) {
-          std::fprintf(stderr, "ballvision capture: %s\n", err.c_str());
-          write_failed = true;
-        }
-      }
-      if (write_failed) break;
-      frames_rows += std::to_string(index) + "," + std::to_string(f.exposure_us) + "," + names[0] +
-                     "," + names[1] + "\n";
-      capture_rows += std::to_string(index) + "," + std::to_string(f.pair_index) + "," +
-                      std::to_string(f.exposure_us) + "," +
-                      (names[0].empty() ? "" : std::to_string(f.omni_exposure_us)) + "," +
-                      (names[1].empty() ? "" : std::to_string(f.persp_exposure_us)) + "," +
-                      (names[0].empty() ? "" : std::to_string(f.omni_sequence)) + "," +
-                      (names[1].empty() ? "" : std::to_string(f.persp_sequence)) + "\n";
-      ++written;
-      std::printf("pair %u (frame %u): t %.6f s, %s%s\n", f.pair_index, index, f.exposure_us * 1e-6,
-                  names[0].empty() ? "" : "omni ", names[1].empty() ? "" : "persp");
-      std::fflush(stdout);
-    }
-  }
+  CaptureReceiver rx{a.out_dir, writable};
+  Receive(fd, a.seconds, rx);
   if (fd != STDIN_FILENO) close(fd);
   if (InterruptSignal()) ReportInterrupt("ballvision capture");
-  if (collector.Finish(message)) std::fprintf(stderr, "ballvision capture: %s\n", message.c_str());
-
-  // What happened, in one line for capture.json and the summary.
-  std::string note;
-  const bool ended = collector.ended();
-  const protocol::CaptureEnd& end = collector.end();
-  const uint32_t requested =
-      collector.seen_any() ? collector.first().count : static_cast<uint32_t>(pairs);
-  const protocol::CaptureMode got_mode = collector.seen_any() ? collector.first().mode : mode;
-  if (!refusal.empty()) {
-    note = "refused by the coprocessor: " + refusal;
-  } else if (!collector.seen_any()) {
-    note = "no capture packets received";
-  } else if (!ended) {
-    note = "cut off: the stream ended before the capture's end packet";
-  } else if (end.reason != protocol::CaptureEndReason::kComplete) {
-    note = std::string("ended early: ") + EndName(end.reason);
-  } else if (collector.pairs_broken() > 0) {
-    note = std::to_string(collector.pairs_broken()) + " pair(s) lost in transmission";
+  if (rx.collector.Finish(rx.message)) {
+    std::fprintf(stderr, "ballvision capture: %s\n", rx.message.c_str());
   }
-  if (write_failed) note = "writing the images failed";
-  const bool complete = note.empty() && written == requested;
-  std::string json = "{\n  \"format\": \"ballvision capture\",\n  \"version\": 1,\n";
-  json += "  \"mode\": " + JsonString(ModeName(got_mode)) + ",\n";
-  json += std::string("  \"upsampled_to_640x480\": ") +
-          (got_mode == protocol::CaptureMode::kFull ? "false" : "true") + ",\n";
-  json += "  \"pairs_requested\": " + std::to_string(requested) + ",\n";
-  json += "  \"pairs_written\": " + std::to_string(written) + ",\n";
-  json += "  \"pairs_broken\": " + std::to_string(collector.pairs_broken()) + ",\n";
-  json += std::string("  \"complete\": ") + (complete ? "true" : "false") + ",\n";
-  json += "  \"end\": " + (ended ? JsonString(EndName(end.reason)) : std::string("null")) + ",\n";
-  json += "  \"note\": " + JsonString(note) + "\n}\n";
-  bool ok = !write_failed;
-  ok = WriteFileAtomic(out_dir + "/capture.csv",
-                       "index,pair_index,t_us,omni_exposure_us,persp_exposure_us,"
-                       "omni_sequence,persp_sequence\n" +
-                           capture_rows,
-                       err) &&
-       ok;
-  ok = WriteFileAtomic(out_dir + "/capture.json", json, err) && ok;
-  ok = WriteFileAtomic(out_dir + "/frames.csv", "index,t_us,omni_file,persp_file\n" + frames_rows,
-                       err) &&
-       ok;
-  if (!ok) std::fprintf(stderr, "ballvision capture: %s\n", err.c_str());
-  std::printf(
-      "summary: pairs_written=%u of %u, broken=%u, bad_packets=%u, decoder_errors=%u, "
-      "%s%s\n",
-      written, requested, collector.pairs_broken(), bad, decoder.stats().errors(),
-      complete ? "complete" : "INCOMPLETE: ", note.c_str());
+  const CaptureOutcome o = Outcome(rx, a);
+  const bool ok = WriteSequenceFiles(a.out_dir, o, rx);
+  PrintSummary(o, rx);
   if (InterruptSignal()) return InterruptExitCode();
-  return ok && complete ? 0 : 1;
+  return ok && o.complete ? 0 : 1;
 }
 
 }  // namespace bv::cli

@@ -409,10 +409,8 @@ void PrintFigures(const Figures& f, bool have_robots) {
               f.sum_feature_lookups / std::max(1, f.frames), f.max_feature_lookups);
 }
 
-}  // namespace
-
-int CmdEvalField(int argc, char** argv) {
-  FieldArgs a;
+// Returns -1 to go on, else the exit code.
+int ParseFieldArgs(int argc, char** argv, FieldArgs& a) {
   ArgParser args("ballvision eval-field", kFieldUsage);
   args.Positional("SEQ", a.seq)
       .Text("--calib", a.calib)
@@ -424,35 +422,103 @@ int CmdEvalField(int argc, char** argv) {
       .Flag("--no-field", a.no_field)
       .Flag("--per-frame", a.per_frame)
       .Flag("--adapt", a.adapt);
-  if (const int rc = args.Parse(argc, argv); rc >= 0) return rc;
-  std::string err, used;
+  return args.Parse(argc, argv);
+}
+
+struct FieldInputs {
   host::Sequence seq;
   RigCalibration cal;
   ColorLut lut;
+  std::string lut_used;  // what LoadLutOrDefault took
   std::map<uint64_t, TruthRow> truth;
   std::map<int64_t, std::vector<RobotTruth>> robots;
-  if (!host::LoadSequence(a.seq, seq, err) || !LoadCalibrationFile(a.calib, cal, err) ||
-      !LoadLutOrDefault(a.lut, a.calib, lut, used, err) ||
-      !LoadTruth(a.seq + "/truth.csv", truth, err) ||
-      (!a.robots.empty() && !LoadRobots(a.robots, robots, err))) {
+};
+
+bool LoadFieldInputs(const FieldArgs& a, FieldInputs& in, std::string& err) {
+  return host::LoadSequence(a.seq, in.seq, err) && LoadCalibrationFile(a.calib, in.cal, err) &&
+         LoadLutOrDefault(a.lut, a.calib, in.lut, in.lut_used, err) &&
+         LoadTruth(a.seq + "/truth.csv", in.truth, err) &&
+         (a.robots.empty() || LoadRobots(a.robots, in.robots, err));
+}
+
+void PrintFrame(const Pipeline& p, const FrameRecord& rec, const TruthRow& t, double t_s) {
+  const FieldFeatures& ff = p.features();
+  if (t.vis[1] && !rec.state.persp.found) {
+    std::printf(
+        "frame %lld: persp ball visible (%.1f, %.1f, area %.0f) not found (out-of-field refused "
+        "%u, dropped %u)\n",
+        static_cast<long long>(rec.index), t.cu[1], t.cv[1], t.area[1],
+        p.last_stats().out_of_field_rejected, p.last_stats().tracks_dropped_out_of_field);
+  }
+  const PoseEstimate& e = p.localisation();
+  std::printf(
+      "frame %lld t %.3f pose state %d (%.2f, %.2f, %.1f deg) sigma %.2f q %.2f "
+      "amb %d lines %d obstacles %d goals %d | truth (%.2f, %.2f, %.1f)\n",
+      static_cast<long long>(rec.index), t_s, e.state, e.x_m, e.y_m, e.heading_rad * 180 / kPi,
+      e.sigma_x_m, e.quality, e.ambiguous, ff.line_count, ff.obstacle_count, ff.goal_count, t.rx,
+      t.ry, t.rh_deg);
+  for (int i = 0; i < ff.goal_count; ++i) {
+    const Goal& g = ff.goals[i];
+    std::printf("  goal (%.2f, %.2f) d %.2f bearing %.1f +- %.1f deg rays %d posts %d which %d\n",
+                g.x_m, g.y_m, g.distance_m, g.bearing_rad * 180 / kPi, g.half_width_rad * 180 / kPi,
+                g.rays, g.post_rays, g.which);
+  }
+}
+
+// One replayed frame against its truth row (frames without one count only their lookups).
+void ScoreFrame(const FieldArgs& a, FieldInputs& in, uint64_t t0, const Pipeline& p,
+                const FrameRecord& rec, Figures& fig) {
+  ++fig.frames;
+  const auto it = in.truth.find(rec.state.t_us);
+  const FieldFeatures& ff = p.features();
+  fig.sum_feature_lookups += ff.lookups;
+  fig.max_feature_lookups = std::max<double>(fig.max_feature_lookups, ff.lookups);
+  if (it == in.truth.end()) return;
+  const double t_s = static_cast<double>(rec.state.t_us - t0) * 1e-6;
+  ScorePose(p.localisation(), it->second, t_s, fig);
+  ScoreLines(ff, p.field_model(), it->second, fig);
+  if (!a.robots.empty()) ScoreObstacles(ff, in.robots[rec.index], fig);
+  ScoreGoals(ff, p.field_model().config(), it->second, fig);
+  ScoreBall(rec.state, it->second, fig);
+  if (a.per_frame) PrintFrame(p, rec, it->second, t_s);
+}
+
+void PrintAdaptation(const ColorAdapter& adapter) {
+  const ColorAdaptStats& s = adapter.stats();
+  const BallColorModel& m = adapter.model();
+  std::printf(
+      "colour adaptation        %u confirmed frames, %u refits (%u refused), model now "
+      "hue %.1f..%.1f deg, chroma >= %.2f, Y >= %d\n",
+      s.frames_observed, s.refits, s.refits_refused, m.hue_min_deg, m.hue_max_deg, m.chroma_min,
+      m.y_min);
+}
+
+}  // namespace
+
+int CmdEvalField(int argc, char** argv) {
+  FieldArgs a;
+  if (const int rc = ParseFieldArgs(argc, argv, a); rc >= 0) return rc;
+  std::string err;
+  FieldInputs in;
+  if (!LoadFieldInputs(a, in, err)) {
     std::fprintf(stderr, "ballvision eval-field: %s\n", err.c_str());
     return 1;
   }
-  std::fprintf(stderr, "colour LUT: %s\n", used.c_str());
+  std::fprintf(stderr, "colour LUT: %s\n", in.lut_used.c_str());
   static ColorAdapter adapter;
   if (a.adapt) {
-    if (used.rfind("built-in", 0) != 0) {
+    if (in.lut_used.rfind("built-in", 0) != 0) {
       std::fprintf(stderr,
                    "ballvision eval-field: --adapt starts from the built-in colour model (--lut "
                    "builtin): a table file does not carry the model it was built from\n");
       return 2;
     }
-    adapter.Start(BallColorModel{}, &lut);
+    adapter.Start(BallColorModel{}, &in.lut);
   }
   auto pipeline = std::make_unique<Pipeline>();
   PipelineConfig config;
   config.field_features = !a.no_field;
-  Status st = pipeline->Init(cal, lut, config);
+  Status st = pipeline->Init(in.cal, in.lut, config);
   if (a.adapt) pipeline->SetColorAdapter(&adapter);
   if (st.ok() && a.half != 0) st = pipeline->SetFieldHalf(static_cast<int8_t>(a.half));
   if (!st.ok()) {
@@ -460,61 +526,19 @@ int CmdEvalField(int argc, char** argv) {
     return 1;
   }
   Figures fig;
-  const uint64_t t0 = seq.entries.empty() ? 0 : seq.entries.front().t_us;
+  const uint64_t t0 = in.seq.entries.empty() ? 0 : in.seq.entries.front().t_us;
   RunSettings rs;
   rs.reset_each_frame = a.stills;
   rs.on_frame = [&](const Pipeline& p, const FrameRecord& rec) {
-    ++fig.frames;
-    const auto it = truth.find(rec.state.t_us);
-    const FieldFeatures& ff = p.features();
-    fig.sum_feature_lookups += ff.lookups;
-    fig.max_feature_lookups = std::max<double>(fig.max_feature_lookups, ff.lookups);
-    if (it == truth.end()) return;
-    const double t_s = static_cast<double>(rec.state.t_us - t0) * 1e-6;
-    ScorePose(p.localisation(), it->second, t_s, fig);
-    ScoreLines(ff, p.field_model(), it->second, fig);
-    if (!a.robots.empty()) ScoreObstacles(ff, robots[rec.index], fig);
-    ScoreGoals(ff, p.field_model().config(), it->second, fig);
-    ScoreBall(rec.state, it->second, fig);
-    if (a.per_frame && it->second.vis[1] && !rec.state.persp.found) {
-      std::printf(
-          "frame %lld: persp ball visible (%.1f, %.1f, area %.0f) not found (out-of-field refused "
-          "%u, dropped %u)\n",
-          static_cast<long long>(rec.index), it->second.cu[1], it->second.cv[1], it->second.area[1],
-          p.last_stats().out_of_field_rejected, p.last_stats().tracks_dropped_out_of_field);
-    }
-    if (a.per_frame) {
-      const PoseEstimate& e = p.localisation();
-      std::printf(
-          "frame %lld t %.3f pose state %d (%.2f, %.2f, %.1f deg) sigma %.2f q %.2f "
-          "amb %d lines %d obstacles %d goals %d | truth (%.2f, %.2f, %.1f)\n",
-          static_cast<long long>(rec.index), t_s, e.state, e.x_m, e.y_m, e.heading_rad * 180 / kPi,
-          e.sigma_x_m, e.quality, e.ambiguous, ff.line_count, ff.obstacle_count, ff.goal_count,
-          it->second.rx, it->second.ry, it->second.rh_deg);
-      for (int i = 0; i < ff.goal_count; ++i) {
-        const Goal& g = ff.goals[i];
-        std::printf(
-            "  goal (%.2f, %.2f) d %.2f bearing %.1f +- %.1f deg rays %d posts %d which %d\n",
-            g.x_m, g.y_m, g.distance_m, g.bearing_rad * 180 / kPi, g.half_width_rad * 180 / kPi,
-            g.rays, g.post_rays, g.which);
-      }
-    }
+    ScoreFrame(a, in, t0, p, rec, fig);
   };
   std::vector<FrameRecord> recs;
-  if (!RunSequence(seq, *pipeline, rs, recs, err)) {
+  if (!RunSequence(in.seq, *pipeline, rs, recs, err)) {
     std::fprintf(stderr, "ballvision eval-field: %s\n", err.c_str());
     return 1;
   }
   PrintFigures(fig, !a.robots.empty());
-  if (a.adapt) {
-    const ColorAdaptStats& s = adapter.stats();
-    const BallColorModel& m = adapter.model();
-    std::printf(
-        "colour adaptation        %u confirmed frames, %u refits (%u refused), model now "
-        "hue %.1f..%.1f deg, chroma >= %.2f, Y >= %d\n",
-        s.frames_observed, s.refits, s.refits_refused, m.hue_min_deg, m.hue_max_deg, m.chroma_min,
-        m.y_min);
-  }
+  if (a.adapt) PrintAdaptation(adapter);
   return 0;
 }
 

@@ -12,6 +12,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <initializer_list>
 #include <string>
 
 #include "core/protocol/protocol.h"
@@ -36,10 +37,10 @@ constexpr char kListenUsage[] =
     "  was received. --lines-csv / --obstacles-csv / --goals-csv: one row per point /\n"
     "  obstacle / goal (robot frame, m, rad), with the packet's seq, t_us and found count.\n";
 
-// Both files are committed even if one fails: what was received is kept where possible.
-bool FinishListenOutputs(SafeOutput& csv, SafeOutput& status_csv) {
+// Every open file is committed even if one fails: what was received is kept where possible.
+bool CommitAll(std::initializer_list<SafeOutput*> outs) {
   bool ok = true;
-  for (SafeOutput* out : {&csv, &status_csv}) {
+  for (SafeOutput* out : outs) {
     std::string e;
     if (out->is_open() && !out->Commit(e)) {
       std::fprintf(stderr, "ballvision listen: %s\n", e.c_str());
@@ -48,6 +49,114 @@ bool FinishListenOutputs(SafeOutput& csv, SafeOutput& status_csv) {
   }
   return ok;
 }
+
+struct ListenArgs {
+  std::string source, csv, status, pose, lines, obstacles, goals;
+  long baud = 921600;
+  double seconds = 0;
+  bool quiet = false;
+};
+
+// Returns -1 to go on, else the exit code.
+int ParseListenArgs(int argc, char** argv, ListenArgs& a) {
+  ArgParser p("ballvision listen", kListenUsage);
+  p.Positional("SOURCE", a.source)
+      .Text("--csv", a.csv)
+      .Text("--status-csv", a.status)
+      .Text("--pose-csv", a.pose)
+      .Text("--lines-csv", a.lines)
+      .Text("--obstacles-csv", a.obstacles)
+      .Text("--goals-csv", a.goals)
+      .Custom("--baud",
+              [&a](const std::string& v, std::string& error) {
+                if (!ArgIntAs("--baud", v, 1, 4000000, a.baud, error)) return false;
+                if (BaudSupported(a.baud)) return true;
+                error = "--baud: unsupported rate " + std::to_string(a.baud);
+                return false;
+              })
+      .Number("--seconds", 0, 1e9, a.seconds)
+      .Flag("--quiet", a.quiet);
+  return p.Parse(argc, argv);
+}
+
+int Fail(const std::string& err) {
+  std::fprintf(stderr, "ballvision listen: %s\n", err.c_str());
+  return 1;
+}
+
+// Ball-state and status packets: counted, optionally written as CSV, shown (ball states every
+// 10th).
+struct StateStreams {
+  SafeOutput csv, status_csv;
+  uint32_t balls = 0, statuses = 0;
+  bool quiet = false;
+
+  bool Open(const std::string& csv_path, const std::string& status_path, std::string& err) {
+    return (csv_path.empty() || csv.Open(csv_path, err)) &&
+           (status_path.empty() || status_csv.Open(status_path, err));
+  }
+
+  void WriteHeaders() {
+    if (csv.is_open()) csv << StatesCsvHeader(true);
+    if (status_csv.is_open()) {
+      status_csv << "seq,uptime_us,frames_processed,frame_rate_hz,frames_dropped,deadline_overruns,"
+                    "packets_dropped,pairs_omni_missing,pairs_persp_missing,pairs_out_of_sync,"
+                    "pairs_out_of_order,pairs_torn,calibration_id,lut_id,calibration_state,"
+                    "lut_state,rx_errors,command_errors,pipeline_errors,last_proc_us,max_proc_us,"
+                    "fault_flags,rx_overruns,rx_ring_full,rx_line_errors,feature_packets_dropped,"
+                    "line_points_unsent\n";
+    }
+  }
+
+  bool Commit() { return CommitAll({&csv, &status_csv}); }
+
+  // False if the payload does not parse.
+  bool Ball(const protocol::FrameView& f) {
+    BallState s;
+    if (!protocol::ParseBallState(f.payload, s).ok()) return false;
+    ++balls;
+    if (csv.is_open()) csv << StatesCsvRow(f.seq, s, true);
+    if (!quiet && balls % 10 == 1) {
+      std::printf(
+          "ball  seq %6u t %10.3f s  %-5s  x %7.3f y %7.3f z %6.3f  v %6.2f %6.2f "
+          "%6.2f  %-8s gap %.3f\n",
+          f.seq, s.t_us * 1e-6, s.found ? "found" : "-", s.x_m, s.y_m, s.z_m, s.vx_mps, s.vy_mps,
+          s.vz_mps, BallModeName(s.mode), s.ray_gap_m);
+    }
+    return true;
+  }
+
+  bool Status(const protocol::FrameView& f) {
+    protocol::StatusReport st;
+    if (!protocol::ParseStatus(f.payload, st).ok()) return false;
+    ++statuses;
+    if (status_csv.is_open()) {
+      status_csv << f.seq << ',' << st.uptime_us << ',' << st.frames_processed << ','
+                 << st.frame_rate_mhz / 1000.0 << ',' << st.frames_dropped << ','
+                 << st.deadline_overruns << ',' << st.packets_dropped << ','
+                 << st.pairs_omni_missing << ',' << st.pairs_persp_missing << ','
+                 << st.pairs_out_of_sync << ',' << st.pairs_out_of_order << ',' << st.pairs_torn
+                 << ',' << st.calibration_id << ',' << st.lut_id << ',' << int(st.calibration_state)
+                 << ',' << int(st.lut_state) << ',' << st.rx_errors << ',' << st.command_errors
+                 << ',' << st.pipeline_errors << ',' << st.last_proc_us << ',' << st.max_proc_us
+                 << ',' << st.fault_flags << ',' << st.rx_overruns << ',' << st.rx_ring_full << ','
+                 << st.rx_line_errors << ',' << st.feature_packets_dropped << ','
+                 << st.line_points_unsent << '\n';
+    }
+    if (!quiet) {
+      std::printf(
+          "status seq %5u up %8.3f s  frames %6u  %.1f Hz  dropped %u  overruns %u  "
+          "pkts dropped %u  calib %s lut %s  proc %u us (max %u)  rx lost: overrun "
+          "%u ring-full %u line %u\n",
+          f.seq, st.uptime_us * 1e-6, st.frames_processed, st.frame_rate_mhz / 1000.0,
+          st.frames_dropped, st.deadline_overruns, st.packets_dropped,
+          st.calibration_state == 0 ? "ok" : "MISSING/CORRUPT",
+          st.lut_state == 0 ? "ok" : "MISSING/CORRUPT", st.last_proc_us, st.max_proc_us,
+          st.rx_overruns, st.rx_ring_full, st.rx_line_errors);
+    }
+    return true;
+  }
+};
 
 // Pose, line-point, obstacle and goal packets: counted, optionally written as CSV, shown every
 // 10th.
@@ -78,18 +187,7 @@ struct FieldStreams {
     return true;
   }
 
-  // Commits every open file (safe_write: temporary, fsync, rename); false on the first error.
-  bool Commit() {
-    bool ok = true;
-    for (SafeOutput* out : {&pose, &lines, &obstacles, &goals}) {
-      std::string e;
-      if (out->is_open() && !out->Commit(e)) {
-        std::fprintf(stderr, "ballvision listen: %s\n", e.c_str());
-        ok = false;
-      }
-    }
-    return ok;
-  }
+  bool Commit() { return CommitAll({&pose, &lines, &obstacles, &goals}); }
 
   // False if the payload does not parse.
   bool Pose(const protocol::FrameView& f) {
@@ -172,149 +270,91 @@ struct FieldStreams {
   }
 };
 
-}  // namespace
-
-int CmdListen(int argc, char** argv) {
-  std::string source, csv_path, status_path, pose_path, lines_path, obstacles_path, goals_path;
-  long baud = 921600;
-  double seconds = 0;
-  bool quiet = false;
-  ArgParser p("ballvision listen", kListenUsage);
-  p.Positional("SOURCE", source)
-      .Text("--csv", csv_path)
-      .Text("--status-csv", status_path)
-      .Text("--pose-csv", pose_path)
-      .Text("--lines-csv", lines_path)
-      .Text("--obstacles-csv", obstacles_path)
-      .Text("--goals-csv", goals_path)
-      .Custom("--baud",
-              [&baud](const std::string& v, std::string& error) {
-                if (!ArgIntAs("--baud", v, 1, 4000000, baud, error)) return false;
-                if (BaudSupported(baud)) return true;
-                error = "--baud: unsupported rate " + std::to_string(baud);
-                return false;
-              })
-      .Number("--seconds", 0, 1e9, seconds)
-      .Flag("--quiet", quiet);
-  if (const int rc = p.Parse(argc, argv); rc >= 0) return rc;
-  std::string err;
-  bool writable = false;  // listen only reads
-  const int fd = OpenLink(source, baud, writable, err, /*read_only=*/true);
-  if (fd < 0) {
-    std::fprintf(stderr, "ballvision listen: %s\n", err.c_str());
-    return 1;
-  }
-  SafeOutput csv, status_csv;
-  if ((!csv_path.empty() && !csv.Open(csv_path, err)) ||
-      (!status_path.empty() && !status_csv.Open(status_path, err))) {
-    std::fprintf(stderr, "ballvision listen: %s\n", err.c_str());
-    return 1;
-  }
-  InstallInterruptHandlers();
-  if (!csv_path.empty()) csv << StatesCsvHeader(true);
-  if (!status_path.empty()) {
-    status_csv << "seq,uptime_us,frames_processed,frame_rate_hz,frames_dropped,deadline_overruns,"
-                  "packets_dropped,pairs_omni_missing,pairs_persp_missing,pairs_out_of_sync,"
-                  "pairs_out_of_order,pairs_torn,calibration_id,lut_id,calibration_state,"
-                  "lut_state,rx_errors,command_errors,pipeline_errors,last_proc_us,max_proc_us,"
-                  "fault_flags,rx_overruns,rx_ring_full,rx_line_errors,feature_packets_dropped,"
-                  "line_points_unsent\n";
-  }
+// The frames of one link: sequence gaps and bad payloads counted, each kind to its stream.
+struct Listener {
+  StateStreams states;
   FieldStreams field;
-  field.quiet = quiet;
-  if (!field.Open(pose_path, lines_path, obstacles_path, goals_path, err)) {
-    std::fprintf(stderr, "ballvision listen: %s\n", err.c_str());
-    return 1;
-  }
   protocol::Decoder decoder;
   protocol::FrameView frame;
-  uint32_t balls = 0, statuses = 0, others = 0, bad_payloads = 0, seq_gaps = 0;
+  uint32_t others = 0, bad_payloads = 0, seq_gaps = 0;
   bool have_seq = false;
   uint32_t last_seq = 0;
+
+  void Feed(const uint8_t* bytes, size_t n) {
+    for (size_t i = 0; i < n; ++i) {
+      if (decoder.Push(bytes[i], frame)) Dispatch();
+    }
+  }
+
+  void Dispatch() {
+    if (have_seq && frame.seq != last_seq + 1) ++seq_gaps;
+    have_seq = true;
+    last_seq = frame.seq;
+    bool parsed = true;
+    if (frame.type == protocol::MsgType::kBallState) {
+      parsed = states.Ball(frame);
+    } else if (frame.type == protocol::MsgType::kStatus) {
+      parsed = states.Status(frame);
+    } else if (frame.type == protocol::MsgType::kPose) {
+      parsed = field.Pose(frame);
+    } else if (frame.type == protocol::MsgType::kLinePoints) {
+      parsed = field.Lines(frame);
+    } else if (frame.type == protocol::MsgType::kObstacles) {
+      parsed = field.Obstacles(frame);
+    } else if (frame.type == protocol::MsgType::kGoals) {
+      parsed = field.Goals(frame);
+    } else {
+      ++others;
+    }
+    if (!parsed) ++bad_payloads;
+  }
+
+  void PrintSummary() const {
+    const auto& ds = decoder.stats();
+    std::printf(
+        "summary: ball_states=%u status=%u other=%u bad_payloads=%u seq_gaps=%u "
+        "decoder_errors=%u (crc %u, cobs %u, oversize %u, short %u, version %u, length %u) "
+        "pose=%u lines=%u obstacles=%u goals=%u\n",
+        states.balls, states.statuses, others, bad_payloads, seq_gaps, ds.errors(), ds.crc_errors,
+        ds.cobs_errors, ds.oversize, ds.short_frames, ds.version_errors, ds.length_errors,
+        field.poses, field.line_packets, field.obstacle_packets, field.goal_packets);
+  }
+};
+
+// Reads until the source ends, `seconds` pass or a signal arrives.
+void ReadLink(int fd, double seconds, Listener& l) {
   const auto start = std::chrono::steady_clock::now();
   uint8_t buf[4096];
   for (;;) {
     const ssize_t n = ReadLinkChunk(fd, buf, sizeof buf, start, seconds, "ballvision listen");
     if (n < 0) break;
-    if (n == 0) continue;
-    for (ssize_t i = 0; i < n; ++i) {
-      if (!decoder.Push(buf[i], frame)) continue;
-      if (have_seq && frame.seq != last_seq + 1) ++seq_gaps;
-      have_seq = true;
-      last_seq = frame.seq;
-      if (frame.type == protocol::MsgType::kBallState) {
-        BallState s;
-        if (!protocol::ParseBallState(frame.payload, s).ok()) {
-          ++bad_payloads;
-          continue;
-        }
-        ++balls;
-        if (csv.is_open()) csv << StatesCsvRow(frame.seq, s, true);
-        if (!quiet && balls % 10 == 1) {
-          std::printf(
-              "ball  seq %6u t %10.3f s  %-5s  x %7.3f y %7.3f z %6.3f  v %6.2f %6.2f "
-              "%6.2f  %-8s gap %.3f\n",
-              frame.seq, s.t_us * 1e-6, s.found ? "found" : "-", s.x_m, s.y_m, s.z_m, s.vx_mps,
-              s.vy_mps, s.vz_mps, BallModeName(s.mode), s.ray_gap_m);
-        }
-      } else if (frame.type == protocol::MsgType::kStatus) {
-        protocol::StatusReport st;
-        if (!protocol::ParseStatus(frame.payload, st).ok()) {
-          ++bad_payloads;
-          continue;
-        }
-        ++statuses;
-        if (status_csv.is_open()) {
-          status_csv << frame.seq << ',' << st.uptime_us << ',' << st.frames_processed << ','
-                     << st.frame_rate_mhz / 1000.0 << ',' << st.frames_dropped << ','
-                     << st.deadline_overruns << ',' << st.packets_dropped << ','
-                     << st.pairs_omni_missing << ',' << st.pairs_persp_missing << ','
-                     << st.pairs_out_of_sync << ',' << st.pairs_out_of_order << ',' << st.pairs_torn
-                     << ',' << st.calibration_id << ',' << st.lut_id << ','
-                     << int(st.calibration_state) << ',' << int(st.lut_state) << ',' << st.rx_errors
-                     << ',' << st.command_errors << ',' << st.pipeline_errors << ','
-                     << st.last_proc_us << ',' << st.max_proc_us << ',' << st.fault_flags << ','
-                     << st.rx_overruns << ',' << st.rx_ring_full << ',' << st.rx_line_errors << ','
-                     << st.feature_packets_dropped << ',' << st.line_points_unsent << '\n';
-        }
-        if (!quiet) {
-          std::printf(
-              "status seq %5u up %8.3f s  frames %6u  %.1f Hz  dropped %u  overruns %u  "
-              "pkts dropped %u  calib %s lut %s  proc %u us (max %u)  rx lost: overrun "
-              "%u ring-full %u line %u\n",
-              frame.seq, st.uptime_us * 1e-6, st.frames_processed, st.frame_rate_mhz / 1000.0,
-              st.frames_dropped, st.deadline_overruns, st.packets_dropped,
-              st.calibration_state == 0 ? "ok" : "MISSING/CORRUPT",
-              st.lut_state == 0 ? "ok" : "MISSING/CORRUPT", st.last_proc_us, st.max_proc_us,
-              st.rx_overruns, st.rx_ring_full, st.rx_line_errors);
-        }
-      } else if (frame.type == protocol::MsgType::kPose) {
-        if (!field.Pose(frame)) ++bad_payloads;
-      } else if (frame.type == protocol::MsgType::kLinePoints) {
-        if (!field.Lines(frame)) ++bad_payloads;
-      } else if (frame.type == protocol::MsgType::kObstacles) {
-        if (!field.Obstacles(frame)) ++bad_payloads;
-      } else if (frame.type == protocol::MsgType::kGoals) {
-        if (!field.Goals(frame)) ++bad_payloads;
-      } else {
-        ++others;
-      }
-    }
+    if (n > 0) l.Feed(buf, static_cast<size_t>(n));
   }
+}
+
+}  // namespace
+
+int CmdListen(int argc, char** argv) {
+  ListenArgs a;
+  if (const int rc = ParseListenArgs(argc, argv, a); rc >= 0) return rc;
+  std::string err;
+  bool writable = false;  // listen only reads
+  const int fd = OpenLink(a.source, a.baud, writable, err, /*read_only=*/true);
+  if (fd < 0) return Fail(err);
+  Listener l;
+  if (!l.states.Open(a.csv, a.status, err)) return Fail(err);
+  InstallInterruptHandlers();
+  l.states.WriteHeaders();
+  l.states.quiet = l.field.quiet = a.quiet;
+  if (!l.field.Open(a.pose, a.lines, a.obstacles, a.goals, err)) return Fail(err);
+  ReadLink(fd, a.seconds, l);
   if (fd != STDIN_FILENO) close(fd);
   if (InterruptSignal()) ReportInterrupt("ballvision listen");
-  const bool field_written = field.Commit();
-  const bool written = FinishListenOutputs(csv, status_csv) && field_written;
-  const auto& ds = decoder.stats();
-  std::printf(
-      "summary: ball_states=%u status=%u other=%u bad_payloads=%u seq_gaps=%u "
-      "decoder_errors=%u (crc %u, cobs %u, oversize %u, short %u, version %u, length %u) "
-      "pose=%u lines=%u obstacles=%u goals=%u\n",
-      balls, statuses, others, bad_payloads, seq_gaps, ds.errors(), ds.crc_errors, ds.cobs_errors,
-      ds.oversize, ds.short_frames, ds.version_errors, ds.length_errors, field.poses,
-      field.line_packets, field.obstacle_packets, field.goal_packets);
+  const bool field_written = l.field.Commit();
+  const bool written = l.states.Commit() && field_written;
+  l.PrintSummary();
   if (InterruptSignal()) return InterruptExitCode();
-  return written && (balls + statuses) > 0 ? 0 : 1;
+  return written && (l.states.balls + l.states.statuses) > 0 ? 0 : 1;
 }
 
 }  // namespace bv::cli

@@ -402,102 +402,101 @@ int Show(const std::string& path) {
   return 0;
 }
 
-int TeachCmd(int argc, char** argv) {
-  std::string seq, out, click, camera = "both", boxes, images, split = "all";
-  int every = 1;
+struct TeachArgs {
+  std::string seq, out, boxes, images, split = "all";
   double cu = 314.2, cv = 244.1;
+  lut::TeachOptions opt;
+};
+
+// --click INDEX:CAMERA:U,V into `opt`; false with the usage error.
+bool ParseClick(const std::string& click, lut::TeachOptions& opt, std::string& error) {
+  const size_t a = click.find(':'), b = click.find(':', a == std::string::npos ? a : a + 1);
+  int64_t index = 0;
+  double u = 0, v = 0;
+  if (a == std::string::npos || b == std::string::npos ||
+      !ArgIntAs("--click", click.substr(0, a), 0, INT64_MAX, index, error) ||
+      !ArgNumberPair("--click", click.substr(b + 1), ',', 0, 8191, u, v, error)) {
+    if (error.empty()) error = "--click: got '" + click + "', expected INDEX:CAMERA:U,V";
+    return false;
+  }
+  const std::string cam = click.substr(a + 1, b - a - 1);
+  if (cam != "omni" && cam != "persp") {
+    error = "--click: camera '" + cam + "', expected omni or persp";
+    return false;
+  }
+  opt.click = true;
+  opt.click_index = index;
+  opt.click_camera = cam == "omni" ? lut::Camera::kOmni : lut::Camera::kPersp;
+  opt.click_u = static_cast<float>(u);
+  opt.click_v = static_cast<float>(v);
+  if (!opt.cameras[static_cast<int>(opt.click_camera)]) {
+    error = "--click names the " + cam + " camera, which --camera leaves out";
+    return false;
+  }
+  return true;
+}
+
+// Returns -1 to go on, else the exit code.
+int ParseTeachArgs(int argc, char** argv, TeachArgs& t) {
+  std::string click, camera = "both";
   ArgParser p("ballvision lut teach", kLutUsage);
-  p.Positional("SEQ", seq, /*required=*/false)
-      .Text("--boxes", boxes)
-      .Text("--images", images)
-      .Text("--split", split)
-      .Text("--out", out)
+  p.Positional("SEQ", t.seq, /*required=*/false)
+      .Text("--boxes", t.boxes)
+      .Text("--images", t.images)
+      .Text("--split", t.split)
+      .Text("--out", t.out)
       .Required("--out")
       .Text("--click", click)
       .Text("--camera", camera)
-      .Int("--every", 1, 1000000, every)
-      .Custom("--center", [&](const std::string& v, std::string& error) {
-        return ArgNumberPair("--center", v, ',', 0, 4096, cu, cv, error);
+      .Int("--every", 1, 1000000, t.opt.every)
+      .Custom("--center", [&t](const std::string& v, std::string& error) {
+        return ArgNumberPair("--center", v, ',', 0, 4096, t.cu, t.cv, error);
       });
   if (const int rc = p.Parse(argc, argv); rc >= 0) return rc;
-  if (seq.empty() == boxes.empty()) {
+  if (t.seq.empty() == t.boxes.empty()) {
     return p.UsageError("give a sequence SEQ or annotated stills --boxes FILE --images DIR");
   }
-  if (!boxes.empty() && images.empty()) return p.UsageError("--boxes needs --images DIR");
-  if (split != "all" && split != "even" && split != "odd") {
-    return p.UsageError("--split: got '" + split + "', expected all, even or odd");
+  if (!t.boxes.empty() && t.images.empty()) return p.UsageError("--boxes needs --images DIR");
+  if (t.split != "all" && t.split != "even" && t.split != "odd") {
+    return p.UsageError("--split: got '" + t.split + "', expected all, even or odd");
   }
-  lut::TeachOptions opt;
-  opt.every = every;
   if (camera != "omni" && camera != "persp" && camera != "both") {
     return p.UsageError("--camera: got '" + camera + "', expected omni, persp or both");
   }
-  opt.cameras[0] = camera != "persp";
-  opt.cameras[1] = camera != "omni";
-  if (!click.empty()) {
-    // INDEX:CAMERA:U,V
-    const size_t a = click.find(':'), b = click.find(':', a == std::string::npos ? a : a + 1);
-    std::string err;
-    int64_t index = 0;
-    double u = 0, v = 0;
-    if (a == std::string::npos || b == std::string::npos ||
-        !ArgIntAs("--click", click.substr(0, a), 0, INT64_MAX, index, err) ||
-        !ArgNumberPair("--click", click.substr(b + 1), ',', 0, 8191, u, v, err)) {
-      return p.UsageError(err.empty() ? "--click: got '" + click + "', expected INDEX:CAMERA:U,V"
-                                      : err);
-    }
-    const std::string cam = click.substr(a + 1, b - a - 1);
-    if (cam != "omni" && cam != "persp") {
-      return p.UsageError("--click: camera '" + cam + "', expected omni or persp");
-    }
-    opt.click = true;
-    opt.click_index = index;
-    opt.click_camera = cam == "omni" ? lut::Camera::kOmni : lut::Camera::kPersp;
-    opt.click_u = static_cast<float>(u);
-    opt.click_v = static_cast<float>(v);
-    if (!opt.cameras[static_cast<int>(opt.click_camera)]) {
-      return p.UsageError("--click names the " + cam + " camera, which --camera leaves out");
-    }
-  }
-  std::string err;
-  if (!CheckOutputPath(out, err)) {
-    std::fprintf(stderr, "ballvision lut teach: %s\n", err.c_str());
-    return 1;
-  }
+  t.opt.cameras[0] = camera != "persp";
+  t.opt.cameras[1] = camera != "omni";
+  std::string error;
+  if (!click.empty() && !ParseClick(click, t.opt, error)) return p.UsageError(error);
+  return -1;
+}
+
+// From the annotated stills when given, else from the sequence.
+bool TeachModel(const TeachArgs& t, const std::vector<lut::BoxImage>& stills, lut::TeachReport& r,
+                std::string& err) {
+  if (!t.boxes.empty()) return lut::TeachBoxes(stills, t.opt.start, r, err);
   lut::FinderSetup setup;
-  setup.omni = ReferenceOmniScanConfig(static_cast<float>(cu), static_cast<float>(cv));
+  setup.omni = ReferenceOmniScanConfig(static_cast<float>(t.cu), static_cast<float>(t.cv));
   setup.persp = ReferencePerspScanConfig();
-  InstallInterruptHandlers();
-  lut::TeachReport r;
-  bool taught = false;
-  if (!boxes.empty()) {
-    std::vector<lut::BoxImage> stills;
-    if (!SelectBoxes({boxes, images, split}, stills)) return 1;
-    taught = lut::TeachBoxes(stills, opt.start, r, err);
-  } else {
-    taught = lut::TeachSequence(seq, setup, opt, r, err);
-  }
-  if (!taught) {
-    std::fprintf(stderr, "ballvision lut teach: %s; %s not written\n", err.c_str(), out.c_str());
-    return 1;
-  }
-  if (InterruptSignal()) {
-    ReportInterrupt("ballvision lut teach");
-    std::fprintf(stderr, "ballvision lut teach: a partly taught table is not written\n");
-    return 130;
-  }
-  static ColorLut lut;
+  return lut::TeachSequence(t.seq, setup, t.opt, r, err);
+}
+
+bool WriteTaughtLut(const BallColorModel& model, const std::string& out, ColorLut& lut,
+                    std::string& err) {
   std::vector<uint8_t> blob(kColorLutBlobBytes);
-  if (const Status st = BuildLut(r.model, lut); !st.ok()) {
-    std::fprintf(stderr, "ballvision lut teach: %s\n", st.message());
-    return 1;
+  if (const Status st = BuildLut(model, lut); !st.ok()) {
+    err = st.message();
+    return false;
   }
   const Result<size_t> n = SerializeLut(lut, blob);
-  if (!n.ok() || !WriteFileAtomic(
-                     out, std::string_view(reinterpret_cast<const char*>(blob.data()), *n), err)) {
-    std::fprintf(stderr, "ballvision lut teach: %s\n", n.ok() ? err.c_str() : n.status().message());
-    return 1;
+  if (!n.ok()) {
+    err = n.status().message();
+    return false;
   }
+  return WriteFileAtomic(out, std::string_view(reinterpret_cast<const char*>(blob.data()), *n),
+                         err);
+}
+
+void PrintTeachReport(const lut::TeachReport& r, const std::string& out, uint32_t lut_id) {
   const BallColorModel& m = r.model;
   std::printf(
       "taught from %d omni + %d persp frames, %zu ball pixels; centres moved up to %lld px\n"
@@ -509,8 +508,37 @@ int TeachCmd(int argc, char** argv) {
       r.frames[0], r.frames[1], r.ball_pixels, static_cast<long long>(r.first_moves_px),
       m.hue_min_deg, m.hue_max_deg, m.chroma_min, m.chroma_min_bright, m.bright_y_end, m.chroma_max,
       m.y_min, r.background, 100.0 * r.field_taken, 100.0 * r.background_taken, out.c_str(),
-      lut.Id());
-  if (!opt.click && r.first_moves_px < 10) {
+      lut_id);
+}
+
+int TeachCmd(int argc, char** argv) {
+  TeachArgs t;
+  if (const int rc = ParseTeachArgs(argc, argv, t); rc >= 0) return rc;
+  std::string err;
+  if (!CheckOutputPath(t.out, err)) {
+    std::fprintf(stderr, "ballvision lut teach: %s\n", err.c_str());
+    return 1;
+  }
+  InstallInterruptHandlers();
+  std::vector<lut::BoxImage> stills;
+  if (!t.boxes.empty() && !SelectBoxes({t.boxes, t.images, t.split}, stills)) return 1;
+  lut::TeachReport r;
+  if (!TeachModel(t, stills, r, err)) {
+    std::fprintf(stderr, "ballvision lut teach: %s; %s not written\n", err.c_str(), t.out.c_str());
+    return 1;
+  }
+  if (InterruptSignal()) {
+    ReportInterrupt("ballvision lut teach");
+    std::fprintf(stderr, "ballvision lut teach: a partly taught table is not written\n");
+    return 130;
+  }
+  static ColorLut lut;
+  if (!WriteTaughtLut(r.model, t.out, lut, err)) {
+    std::fprintf(stderr, "ballvision lut teach: %s\n", err.c_str());
+    return 1;
+  }
+  PrintTeachReport(r, t.out, lut.Id());
+  if (!t.opt.click && r.first_moves_px < 10) {
     std::fprintf(stderr,
                  "ballvision lut teach: warning: the blob learnt from hardly moved (%lld px); if "
                  "it is not the ball, teach again with --click\n",

@@ -180,109 +180,108 @@ float MeanHue(const YuyvImage& img, const BallDetection& d) {
   return static_cast<float>(std::atan2(ss, sc)) * kRadToDeg;
 }
 
-// One camera: track the ball with `model`'s table (from the click when it names this camera),
-// grow it in every frame it was found in, sample the rest of those frames as background.
-bool CollectCamera(const host::Sequence& seq, const FinderSetup& setup, const TeachOptions& opt,
-                   const BallColorModel& model, const float* target_hue, Camera cam, Collected& out,
-                   std::string& error) {
-  static ColorLut lut;
-  if (const Status st = BuildLut(model, lut); !st.ok()) {
-    error = st.message();
-    return false;
+// The scanline table and ball finder of one camera (heap: the table is large).
+struct CameraFinder {
+  std::unique_ptr<ScanlineTable<kOmniScanPixels>> table;
+  std::unique_ptr<BallFinder> finder;
+
+  bool Init(const FinderSetup& setup, Camera cam, std::string& error) {
+    table = std::make_unique<ScanlineTable<kOmniScanPixels>>();
+    const Status st = cam == Camera::kOmni
+                          ? table->BuildOmni(setup.omni, kFrameWidth, kFrameHeight)
+                          : table->BuildPersp(setup.persp, kFrameWidth, kFrameHeight);
+    finder = std::make_unique<BallFinder>();
+    if (!st.ok() || !finder->Init(*table, setup.finder).ok()) {
+      error = "scanlines / finder for the " + std::string(cam == Camera::kOmni ? "omni" : "persp") +
+              " camera";
+      return false;
+    }
+    return true;
   }
-  const int c = static_cast<int>(cam);
-  auto table = std::make_unique<ScanlineTable<kOmniScanPixels>>();
-  const Status st = cam == Camera::kOmni
-                        ? table->BuildOmni(setup.omni, kFrameWidth, kFrameHeight)
-                        : table->BuildPersp(setup.persp, kFrameWidth, kFrameHeight);
-  auto finder = std::make_unique<BallFinder>();
-  if (!st.ok() || !finder->Init(*table, setup.finder).ok()) {
-    error = "scanlines / finder for the " + std::string(c == 0 ? "omni" : "persp") + " camera";
-    return false;
-  }
+};
+
+// Entry indices of the frames --every selects.
+std::vector<size_t> SelectFrames(const host::Sequence& seq, int every) {
   std::vector<size_t> order;
   for (size_t k = 0; k < seq.entries.size(); ++k) {
-    if (opt.every <= 1 || seq.entries[k].index % opt.every == 0) order.push_back(k);
+    if (every <= 1 || seq.entries[k].index % every == 0) order.push_back(k);
   }
-  const GrowTest grow{model.hue_min_deg - kGrowHueMarginDeg, model.hue_max_deg + kGrowHueMarginDeg};
-  const Pass pass{&seq, cam, &lut, finder.get()};
-  std::vector<Found> found;
-  if (opt.click && opt.click_camera == cam) {
-    const auto at = std::find_if(order.begin(), order.end(),
-                                 [&](size_t k) { return seq.entries[k].index == opt.click_index; });
-    if (at == order.end()) {
-      error = "the click's frame " + std::to_string(opt.click_index) + " is not in " + seq.dir +
-              (opt.every > 1 ? " (or not among the frames --every selects)" : "");
-      return false;
-    }
-    const Prediction click{opt.click_u, opt.click_v, 6.0f};
-    std::vector<Found> first;
-    if (!Track(pass, {*at}, &click, 0.0f, first, error)) return false;
-    if (first.empty() ||
-        std::hypot(first[0].u - opt.click_u, first[0].v - opt.click_v) > first[0].r + 6.0f) {
-      char buf[200];
-      std::snprintf(buf, sizeof buf,
-                    "no ball-coloured region at the click (%s frame %lld, pixel %.0f, %.0f): "
-                    "the starting model's table finds nothing there",
-                    c == 0 ? "omni" : "persp", static_cast<long long>(opt.click_index), opt.click_u,
-                    opt.click_v);
-      error = buf;
-      return false;
-    }
-    const Prediction from{first[0].u, first[0].v, std::max(4.0f, first[0].r)};
-    std::vector<size_t> fwd(at, order.end()), back(order.begin(), at + 1);
-    std::reverse(back.begin(), back.end());
-    if (!Track(pass, fwd, &from, first[0].r, found, error) ||
-        !Track(pass, back, &from, first[0].r, found, error)) {
-      return false;
-    }
-  } else if (target_hue != nullptr) {
-    // The other camera of a click: start from the first frame with a candidate, at the one
-    // whose colour is nearest the clicked ball's (a red box beside an orange ball is as round
-    // and larger), within 8 deg.
-    for (size_t at = 0; at < order.size(); ++at) {
-      const host::SequenceEntry& e = seq.entries[order[at]];
-      const std::string& path = c == 0 ? e.omni_path : e.persp_path;
-      if (path.empty()) continue;
-      Image img;
-      if (!LoadImage(path, img, error)) return false;
-      BallDetection det;
-      FrontEndStats stats;
-      if (!finder->Find(img.view(), lut, nullptr, det, stats).ok()) {
-        error = "finder failed on " + path;
-        return false;
-      }
-      BallDetection cand[8];
-      const size_t n = finder->Candidates(cand);
-      float best = kAcquireHueTolDeg;
-      const BallDetection* pick = nullptr;
-      for (size_t i = 0; i < n; ++i) {
-        const float d =
-            std::fabs(UnwrapNear(MeanHue(img.view(), cand[i]), *target_hue) - *target_hue);
-        if (d < best) {
-          best = d;
-          pick = &cand[i];
-        }
-      }
-      if (pick == nullptr) continue;
-      const Prediction from{pick->u_px, pick->v_px, std::max(4.0f, pick->radius_px)};
-      const std::vector<size_t> rest(order.begin() + static_cast<ptrdiff_t>(at), order.end());
-      if (!Track(pass, rest, &from, pick->radius_px, found, error)) return false;
-      break;
-    }
-  } else if (!Track(pass, order, nullptr, 0.0f, found, error)) {
+  return order;
+}
+
+// The clicked camera: the ball at the click, tracked from there forwards and backwards.
+bool TrackFromClick(const Pass& pass, const std::vector<size_t>& order, const TeachOptions& opt,
+                    std::vector<Found>& found, std::string& error) {
+  const host::Sequence& seq = *pass.seq;
+  const auto at = std::find_if(order.begin(), order.end(),
+                               [&](size_t k) { return seq.entries[k].index == opt.click_index; });
+  if (at == order.end()) {
+    error = "the click's frame " + std::to_string(opt.click_index) + " is not in " + seq.dir +
+            (opt.every > 1 ? " (or not among the frames --every selects)" : "");
     return false;
   }
-  std::sort(found.begin(), found.end(),
-            [](const Found& a, const Found& b) { return a.index < b.index; });
-  found.erase(std::unique(found.begin(), found.end(),
-                          [](const Found& a, const Found& b) { return a.index == b.index; }),
-              found.end());
-  for (const Found& f : found) {
-    out.moved_px =
-        std::max(out.moved_px,
-                 static_cast<int64_t>(std::hypot(f.u - found.front().u, f.v - found.front().v)));
+  const Prediction click{opt.click_u, opt.click_v, 6.0f};
+  std::vector<Found> first;
+  if (!Track(pass, {*at}, &click, 0.0f, first, error)) return false;
+  if (first.empty() ||
+      std::hypot(first[0].u - opt.click_u, first[0].v - opt.click_v) > first[0].r + 6.0f) {
+    char buf[200];
+    std::snprintf(buf, sizeof buf,
+                  "no ball-coloured region at the click (%s frame %lld, pixel %.0f, %.0f): "
+                  "the starting model's table finds nothing there",
+                  pass.cam == Camera::kOmni ? "omni" : "persp",
+                  static_cast<long long>(opt.click_index), opt.click_u, opt.click_v);
+    error = buf;
+    return false;
   }
+  const Prediction from{first[0].u, first[0].v, std::max(4.0f, first[0].r)};
+  std::vector<size_t> fwd(at, order.end()), back(order.begin(), at + 1);
+  std::reverse(back.begin(), back.end());
+  return Track(pass, fwd, &from, first[0].r, found, error) &&
+         Track(pass, back, &from, first[0].r, found, error);
+}
+
+// The other camera of a click: start from the first frame with a candidate, at the one whose
+// colour is nearest the clicked ball's (a red box beside an orange ball is as round and larger),
+// within 8 deg.
+bool TrackFromHue(const Pass& pass, const std::vector<size_t>& order, float target_hue,
+                  std::vector<Found>& found, std::string& error) {
+  for (size_t at = 0; at < order.size(); ++at) {
+    const host::SequenceEntry& e = pass.seq->entries[order[at]];
+    const std::string& path = pass.cam == Camera::kOmni ? e.omni_path : e.persp_path;
+    if (path.empty()) continue;
+    Image img;
+    if (!LoadImage(path, img, error)) return false;
+    BallDetection det;
+    FrontEndStats stats;
+    if (!pass.finder->Find(img.view(), *pass.lut, nullptr, det, stats).ok()) {
+      error = "finder failed on " + path;
+      return false;
+    }
+    BallDetection cand[8];
+    const size_t n = pass.finder->Candidates(cand);
+    float best = kAcquireHueTolDeg;
+    const BallDetection* pick = nullptr;
+    for (size_t i = 0; i < n; ++i) {
+      const float d = std::fabs(UnwrapNear(MeanHue(img.view(), cand[i]), target_hue) - target_hue);
+      if (d < best) {
+        best = d;
+        pick = &cand[i];
+      }
+    }
+    if (pick == nullptr) continue;
+    const Prediction from{pick->u_px, pick->v_px, std::max(4.0f, pick->radius_px)};
+    const std::vector<size_t> rest(order.begin() + static_cast<ptrdiff_t>(at), order.end());
+    return Track(pass, rest, &from, pick->radius_px, found, error);
+  }
+  return true;
+}
+
+// Grows the ball in every frame it was found in (`found` sorted by index, one per frame) and
+// samples the rest of those frames as background.
+bool GrowFound(const host::Sequence& seq, Camera cam, const GrowTest& grow,
+               const std::vector<Found>& found, Collected& out, std::string& error) {
+  const int c = static_cast<int>(cam);
   size_t k_found = 0;
   for (const host::SequenceEntry& e : seq.entries) {
     while (k_found < found.size() && found[k_found].index < e.index) ++k_found;
@@ -308,6 +307,44 @@ bool CollectCamera(const host::Sequence& seq, const FinderSetup& setup, const Te
     }
   }
   return true;
+}
+
+// One camera: track the ball with `model`'s table (from the click when it names this camera),
+// grow it in every frame it was found in, sample the rest of those frames as background.
+bool CollectCamera(const host::Sequence& seq, const FinderSetup& setup, const TeachOptions& opt,
+                   const BallColorModel& model, const float* target_hue, Camera cam, Collected& out,
+                   std::string& error) {
+  static ColorLut lut;
+  if (const Status st = BuildLut(model, lut); !st.ok()) {
+    error = st.message();
+    return false;
+  }
+  CameraFinder cf;
+  if (!cf.Init(setup, cam, error)) return false;
+  const std::vector<size_t> order = SelectFrames(seq, opt.every);
+  const Pass pass{&seq, cam, &lut, cf.finder.get()};
+  std::vector<Found> found;
+  bool tracked = false;
+  if (opt.click && opt.click_camera == cam) {
+    tracked = TrackFromClick(pass, order, opt, found, error);
+  } else if (target_hue != nullptr) {
+    tracked = TrackFromHue(pass, order, *target_hue, found, error);
+  } else {
+    tracked = Track(pass, order, nullptr, 0.0f, found, error);
+  }
+  if (!tracked) return false;
+  std::sort(found.begin(), found.end(),
+            [](const Found& a, const Found& b) { return a.index < b.index; });
+  found.erase(std::unique(found.begin(), found.end(),
+                          [](const Found& a, const Found& b) { return a.index == b.index; }),
+              found.end());
+  for (const Found& f : found) {
+    out.moved_px =
+        std::max(out.moved_px,
+                 static_cast<int64_t>(std::hypot(f.u - found.front().u, f.v - found.front().v)));
+  }
+  const GrowTest grow{model.hue_min_deg - kGrowHueMarginDeg, model.hue_max_deg + kGrowHueMarginDeg};
+  return GrowFound(seq, cam, grow, found, out, error);
 }
 
 // The model fitted to `ball` (its statistics gathered once) and narrowed against `background`;
