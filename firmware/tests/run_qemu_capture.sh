@@ -10,6 +10,7 @@ set -u
 qemu=$1 elf=$2 bv=$3 src=$4 work=$5 first=$6 count=$7 calib=$8 lut=$9 py=${10}
 here=$(cd "$(dirname "$0")" && pwd)
 fail() { echo "FAIL: $*"; exit 1; }
+. "$here/qemu_piped.sh"
 for f in "$src/frames.csv" "$calib" "$lut"; do
   [ -f "$f" ] || { echo "SKIP: $f not found"; exit 77; }
 done
@@ -25,21 +26,11 @@ out = commands.clock_sync(1, 7, 1700000000000000)
 out += commands.capture_start(2, $count, commands.CAPTURE_FULL, 3)
 out += commands.capture_start(3, 1)  # while the first runs: refused, busy
 open(sys.argv[1], 'wb').write(out)" "$work/commands.bin" || fail "commands"
-rm -f "$work/uart.in" "$work/uart.out"
-mkfifo "$work/uart.in" "$work/uart.out" || fail "mkfifo"
-cat "$work/uart.out" > "$work/uart.bin" & reader=$!
-cat "$work/commands.bin" > "$work/uart.in" & writer=$!
 # capture_chunks=4000: QEMU's UART takes bytes instantly, so a whole pair is streamed in one
 # loop iteration and the capture holds consecutive pairs (on the board the 921600 Bd line sets
 # the pace).
-"$qemu" -machine mps2-an500 -display none -monitor none -icount shift=0 \
-  -chardev "pipe,id=u0,path=$work/uart" -serial chardev:u0 \
-  -semihosting-config "enable=on,target=native,arg=seq=$work/seq,arg=cal=$work/calib.bin,arg=lut=$lut,arg=rx_bytes=$(stat -c %s "$work/commands.bin"),arg=capture_chunks=4000" \
-  -kernel "$elf" < /dev/null 2> "$work/qemu.err"
-rc=$?
-kill "$writer" 2> /dev/null
-wait "$reader"
-[ $rc -eq 0 ] || { cat "$work/qemu.err"; fail "QEMU exited with $rc"; }
+qemu_piped "$qemu" "$elf" "$work" "$work/uart.bin" "$work/commands.bin" \
+  "arg=seq=$work/seq,arg=cal=$work/calib.bin,arg=lut=$lut,arg=capture_chunks=4000"
 
 "$bv" capture "$work/uart.bin" --out "$work/cap" > "$work/capture.out" 2>&1 ||
   { cat "$work/capture.out"; fail "capture did not complete"; }

@@ -7,37 +7,18 @@ set -u
 qemu=$1 elf=$2 bv=$3 src=$4 work=$5 py=$6
 here=$(cd "$(dirname "$0")" && pwd)
 fail() { echo "FAIL: $*"; exit 1; }
+. "$here/qemu_piped.sh"
 if [ ! -f "$src/frames.csv" ]; then echo "SKIP: $src not found"; exit 77; fi
 [ -x "$bv" ] || fail "host tool $bv not built: build the host preset first"
 rm -rf "$work" && mkdir -p "$work"
 "$bv" seq to-raw "$src" "$work/seq" --first 0 --count 3 > /dev/null || fail "seq to-raw failed"
-run() {  # $1 output file, $2 input file (or empty)
-  local serial=(-serial "file:$1") extra="" writer="" reader=""
-  if [ -n "$2" ]; then
-    # A pipe chardev (FIFOs DIR/uart.in, DIR/uart.out) gives UART0 a receive side; rx_bytes
-    # holds the replay open until every command byte has been read by the firmware.
-    rm -f "$work/uart.in" "$work/uart.out"
-    mkfifo "$work/uart.in" "$work/uart.out" || fail "mkfifo"
-    cat "$work/uart.out" > "$1" & reader=$!
-    cat "$2" > "$work/uart.in" & writer=$!
-    serial=(-chardev "pipe,id=u0,path=$work/uart" -serial chardev:u0)
-    extra=",arg=rx_bytes=$(stat -c %s "$2")"
-  fi
-  "$qemu" -machine mps2-an500 -display none -monitor none -icount shift=0 "${serial[@]}" \
-    -semihosting-config "enable=on,target=native,arg=seq=$work/seq$extra" -kernel "$elf" \
-    < /dev/null 2> "$work/qemu.err"
-  local rc=$?
-  [ -n "$writer" ] && kill "$writer" 2> /dev/null
-  [ -n "$reader" ] && wait "$reader"
-  [ $rc -eq 0 ] || { cat "$work/qemu.err"; fail "QEMU exited with $rc"; }
-}
 repo=$(cd "$here/../.." && pwd)
 "$bv" calib to-blob "$repo/host_tests/data/reference_rig_calib.json" "$work/cal.bin" > /dev/null ||
   fail "calib to-blob"
 "$py" "$here/make_commands.py" "$work/commands.bin" "$work/cal.bin" || fail "make_commands"
 chunks=$(( ($(stat -c %s "$work/cal.bin") + 511) / 512 ))
 replies=$(( 2 + 1 + chunks + 1 ))  # two parameters, upload begin, chunks, commit
-run "$work/uart.bin" "$work/commands.bin"
+qemu_piped "$qemu" "$elf" "$work" "$work/uart.bin" "$work/commands.bin" "arg=seq=$work/seq"
 "$bv" listen "$work/uart.bin" --csv "$work/states.csv" --status-csv "$work/status.csv" --quiet \
   > "$work/listen.out" 2>&1 || { cat "$work/listen.out"; fail "nothing decoded"; }
 cat "$work/listen.out"

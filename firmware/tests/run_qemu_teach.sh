@@ -7,6 +7,7 @@ set -u
 qemu=$1 elf=$2 bv=$3 src=$4 work=$5 py=$6
 here=$(cd "$(dirname "$0")" && pwd)
 fail() { echo "FAIL: $*"; exit 1; }
+. "$here/qemu_piped.sh"
 if [ ! -f "$src/truth.csv" ]; then echo "SKIP: $src not found"; exit 77; fi
 [ -x "$bv" ] || fail "host tool $bv not built: build the host preset first"
 rm -rf "$work" && mkdir -p "$work"
@@ -23,18 +24,7 @@ read -r u v < <(awk -F, 'NR == 1 { for (i = 1; i <= NF; ++i) c[$i] = i }
                          NR == 2 { print $c["cu_persp"], $c["cv_persp"] }' "$src/truth.csv")
 "$py" "$here/make_teach_commands.py" "$work/commands.bin" "$u" "$v" ||
   fail "make_teach_commands"
-rm -f "$work/uart.in" "$work/uart.out"
-mkfifo "$work/uart.in" "$work/uart.out" || fail "mkfifo"
-cat "$work/uart.out" > "$work/uart.bin" & reader=$!
-cat "$work/commands.bin" > "$work/uart.in" & writer=$!
-"$qemu" -machine mps2-an500 -display none -monitor none -icount shift=0 \
-  -chardev "pipe,id=u0,path=$work/uart" -serial chardev:u0 \
-  -semihosting-config \
-  "enable=on,target=native,arg=seq=$work/seq,arg=cal=$work/cal.bin,arg=rx_bytes=$(stat -c %s "$work/commands.bin")" \
-  -kernel "$elf" < /dev/null 2> "$work/qemu.err"
-rc=$?
-kill "$writer" 2> /dev/null
-wait "$reader"
-[ $rc -eq 0 ] || { cat "$work/qemu.err"; fail "QEMU exited with $rc"; }
+qemu_piped "$qemu" "$elf" "$work" "$work/uart.bin" "$work/commands.bin" \
+  "arg=seq=$work/seq,arg=cal=$work/cal.bin"
 "$py" "$here/check_teach_replies.py" "$work/uart.bin" || exit 1
 echo "PASS: taught over UART0 at persp pixel ($u, $v): table stored and active"

@@ -247,23 +247,21 @@ void BoardExit(int code) {
   // The UART (ring + hardware) is fully drained before QEMU exits and closes the serial file
   // (unless its transmitter is stalled by fault injection: then the summary below is all).
   if (g_uart != nullptr) g_uart->Flush();
+  // One "board: exit name=value" line per counter (the QEMU tests read them).
+  auto line = [](const char* name, uint64_t value) {
+    SemiWrite0("board: exit ");
+    SemiWriteDec(name, value);
+  };
   if (g_camera != nullptr) {
-    SemiWrite0("board: exit ");
-    SemiWriteDec("pairs_served", *g_camera->pairs_served_counter());
-    SemiWrite0("board: exit ");
-    SemiWriteDec("frames_dropped", g_camera->frames_dropped());
-    SemiWrite0("board: exit ");
-    SemiWriteDec("pairs_torn", g_camera->pairs_torn());
-    SemiWrite0("board: exit ");
-    SemiWriteDec("max_hold_us", g_camera->max_hold_us());
+    line("pairs_served", *g_camera->pairs_served_counter());
+    line("frames_dropped", g_camera->frames_dropped());
+    line("pairs_torn", g_camera->pairs_torn());
+    line("max_hold_us", g_camera->max_hold_us());
   }
   if (g_uart != nullptr) {
-    SemiWrite0("board: exit ");
-    SemiWriteDec("uart_writes_refused", g_uart->writes_refused());
-    SemiWrite0("board: exit ");
-    SemiWriteDec("uart_bytes_sent", g_uart->bytes_sent());
-    SemiWrite0("board: exit ");
-    SemiWriteDec("uart_bytes_queued", g_uart->bytes_queued());
+    line("uart_writes_refused", g_uart->writes_refused());
+    line("uart_bytes_sent", g_uart->bytes_sent());
+    line("uart_bytes_queued", g_uart->bytes_queued());
   }
   SemiExit(code);
 }

@@ -1,0 +1,21 @@
+# Sourced by the run_qemu_*.sh scripts that talk to the board's UART0 receive side.
+#   qemu_piped QEMU ELF WORK OUT IN SEMIHOSTING_ARGS
+# runs the emulated board with UART0 on a pipe chardev (FIFOs WORK/uart.in, WORK/uart.out): the
+# bytes of IN reach its receive side, what it sends lands in OUT. rx_bytes holds the replay open
+# until the firmware has read every byte of IN. QEMU's stderr is WORK/qemu.err; a non-zero exit
+# prints it and fails the test (the caller's fail()).
+qemu_piped() {
+  local qemu=$1 elf=$2 work=$3 out=$4 in=$5 args=$6 reader writer rc
+  rm -f "$work/uart.in" "$work/uart.out"
+  mkfifo "$work/uart.in" "$work/uart.out" || fail "mkfifo"
+  cat "$work/uart.out" > "$out" & reader=$!
+  cat "$in" > "$work/uart.in" & writer=$!
+  "$qemu" -machine mps2-an500 -display none -monitor none -icount shift=0 \
+    -chardev "pipe,id=u0,path=$work/uart" -serial chardev:u0 \
+    -semihosting-config "enable=on,target=native,$args,arg=rx_bytes=$(stat -c %s "$in")" \
+    -kernel "$elf" < /dev/null 2> "$work/qemu.err"
+  rc=$?
+  kill "$writer" 2> /dev/null
+  wait "$reader"
+  [ $rc -eq 0 ] || { cat "$work/qemu.err"; fail "QEMU exited with $rc"; }
+}
