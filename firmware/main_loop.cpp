@@ -142,6 +142,41 @@ Status MainLoop::Uploads::Begin(protocol::UploadTarget target, size_t total_len)
     return Status(StatusCode::kResourceExhausted, "upload: larger than the target allows");
   }
   length_ = total_len;
+  loop_.snapshot_.valid = false;  // the staging half is about to be overwritten
+  return Status();
+}
+
+Status MainLoop::Readback::ReadBlob(protocol::UploadTarget target, uint32_t offset, size_t max_len,
+                                    protocol::BlobData& out) {
+  MainLoop& m = loop_;
+  Snapshot& snap = m.snapshot_;
+  if (m.upload_buffer_.empty()) return Status(StatusCode::kUnimplemented, "read-back: no buffer");
+  if (m.teach_.active) return Status(StatusCode::kUnavailable, "read-back: a teach is pending");
+  // The reply is low priority: it never takes the room kept for ball states and status.
+  const size_t reply = protocol::WireFrameBytes(protocol::kBlobDataHeaderBytes + max_len);
+  if (m.uart_.WriteSpace() < reply + kTxReserveBytes) {
+    return Status(StatusCode::kUnavailable, "read-back: no room on the link now");
+  }
+  if (offset == 0) {
+    snap.valid = false;
+    const std::span<uint8_t> buf = m.upload_buffer_.first(kBlobScratchBytes);
+    const bool calibration = target == protocol::UploadTarget::kCalibration;
+    if (calibration && m.status_.calibration_state != static_cast<uint8_t>(BlobState::kOk)) {
+      return Status(StatusCode::kNotFound, "read-back: no calibration in use");
+    }
+    const Result<size_t> n =
+        calibration ? SerializeCalibration(m.calibration_, buf) : SerializeLut(m.lut_, buf);
+    if (!n.ok()) return Status(StatusCode::kNotFound, n.status().message());
+    snap = {true, target, static_cast<uint32_t>(*n), Crc32(buf.first(*n))};
+  }
+  if (!snap.valid || snap.target != target) {
+    return Status(StatusCode::kFailedPrecondition, "read-back: no snapshot, read from 0");
+  }
+  out.total_len = snap.length;
+  out.blob_crc32 = snap.crc32;
+  if (offset >= snap.length) return Status(StatusCode::kOutOfRange, "read-back: beyond the end");
+  const size_t n = max_len < snap.length - offset ? max_len : snap.length - offset;
+  out.data = m.upload_buffer_.subspan(offset, n);
   return Status();
 }
 
@@ -342,6 +377,7 @@ Status MainLoop::SetAdaptation(bool on) {
 // check in the second half (which overwrites a `table` placed there), reported as in use.
 protocol::CommandError MainLoop::StoreTable(const ColorLut& table) {
   if (upload_buffer_.empty()) return protocol::CommandError::kUnsupported;
+  snapshot_.valid = false;
   const std::span<uint8_t> blob = upload_buffer_.first(kBlobScratchBytes);
   const Result<size_t> n = SerializeLut(table, blob);
   if (!n.ok()) return protocol::CommandError::kStorageFailed;

@@ -214,6 +214,23 @@ class MainLoop {
    private:
     MainLoop& loop_;
   };
+  // Read-back of the blob in use (docs/protocol.md, "Read-back"): a snapshot in the upload
+  // buffer's first half, served in chunks; any other use of that half drops it.
+  class Readback : public protocol::ReadbackSink {
+   public:
+    explicit Readback(MainLoop& loop) : loop_(loop) {}
+    Status ReadBlob(protocol::UploadTarget target, uint32_t offset, size_t max_len,
+                    protocol::BlobData& out) override;
+
+   private:
+    MainLoop& loop_;
+  };
+  struct Snapshot {
+    bool valid = false;
+    protocol::UploadTarget target = protocol::UploadTarget::kLut;
+    uint32_t length = 0;
+    uint32_t crc32 = 0;
+  };
   struct TeachPending {
     bool active = false;
     protocol::TeachRequest request;
@@ -290,11 +307,14 @@ class MainLoop {
   Capture capture_sink_{*this};
   Teacher teacher_{*this};
   TeachPending teach_;
+  Readback readback_{*this};
+  Snapshot snapshot_;
   ColorAdapter* adapter_ = nullptr;  // in the upload buffer; null without one
   BallColorModel lut_model_;         // what the table in use was built from, if known
   bool lut_model_known_ = false;
   protocol::Decoder rx_;
-  protocol::CommandHandler commands_{uploads_, params_, &hints_, &capture_sink_, &teacher_};
+  protocol::CommandHandler commands_{uploads_,       params_,   &hints_,
+                                     &capture_sink_, &teacher_, &readback_};
 };
 
 }  // namespace bv::fw

@@ -83,6 +83,12 @@ class FakeUart : public hal::Uart {
     rx_len_ += b.size();
   }
   bool rx_empty() const { return rx_pos_ == rx_len_; }
+  /// What was transmitted so far; the record starts empty again (a long exchange in rounds).
+  std::vector<uint8_t> TakeBytes() {
+    std::vector<uint8_t> out(buf_.begin(), buf_.begin() + static_cast<std::ptrdiff_t>(size_));
+    size_ = 0;
+    return out;
+  }
   hal::UartRxStats rx_stats;  // what the board driver would report
 
  private:
@@ -566,13 +572,17 @@ class MainLoopCommandsTest : public MainLoopTest {
     w.F32(b);
     Command(protocol::MsgType::kTeachBall, w.written());
   }
-  void Upload(protocol::UploadTarget target, std::span<const uint8_t> blob, uint32_t crc) {
-    uint8_t p[5 + protocol::kMaxChunkBytes];
+  void UploadBegin(protocol::UploadTarget target, size_t size, uint32_t crc) {
+    uint8_t p[9];
     ByteWriter begin(p);
     begin.U8(static_cast<uint8_t>(target));
-    begin.U32(static_cast<uint32_t>(blob.size()));
+    begin.U32(static_cast<uint32_t>(size));
     begin.U32(crc);
     Command(protocol::MsgType::kUploadBegin, begin.written());
+  }
+  void Upload(protocol::UploadTarget target, std::span<const uint8_t> blob, uint32_t crc) {
+    UploadBegin(target, blob.size(), crc);
+    uint8_t p[5 + protocol::kMaxChunkBytes];
     for (size_t off = 0; off < blob.size(); off += protocol::kMaxChunkBytes) {
       const size_t n = std::min(protocol::kMaxChunkBytes, blob.size() - off);
       ByteWriter chunk(p);
@@ -957,6 +967,157 @@ TEST_F(MainLoopCommandsTest, RobotPoseParametersReachThePipeline) {
   EXPECT_EQ(code, static_cast<uint8_t>(protocol::CommandError::kBadValue));
   set(kParamRobotPoseKnown, 0.f);
   EXPECT_FALSE(loop_->pipeline().robot_pose().known);
+}
+
+// Read-back (0x2C): the blob in use comes back in chunks of one snapshot, checked by its CRC.
+class MainLoopReadbackTest : public MainLoopCommandsTest {
+ protected:
+  void Read(protocol::UploadTarget target, uint32_t offset, uint16_t length = 512) {
+    uint8_t p[protocol::kReadBlobBytes];
+    ByteWriter w(p);
+    w.U8(static_cast<uint8_t>(target));
+    w.U32(offset);
+    w.U16(length);
+    Command(protocol::MsgType::kReadBlob, w.written());
+  }
+  struct Answers {
+    std::vector<protocol::BlobData> data;
+    std::vector<std::vector<uint8_t>> bytes;           // each data packet's bytes (the spans die)
+    std::vector<std::pair<uint8_t, uint32_t>> errors;  // code, detail
+  };
+  Answers Collect() {
+    Drain();
+    Answers a;
+    const std::vector<uint8_t> sent = uart_.TakeBytes();
+    protocol::Decoder dec;
+    protocol::FrameView f;
+    for (uint8_t b : sent) {
+      if (!dec.Push(b, f)) continue;
+      if (f.type == protocol::MsgType::kBlobData) {
+        protocol::BlobData d;
+        EXPECT_TRUE(protocol::ParseBlobData(f.payload, d).ok());
+        a.bytes.emplace_back(d.data.begin(), d.data.end());
+        a.data.push_back(d);
+      } else if (f.type == protocol::MsgType::kError) {
+        ByteReader r(f.payload);
+        r.U8(), r.U32();
+        const uint8_t code = r.U8();
+        a.errors.push_back({code, r.U32()});
+      }
+    }
+    return a;
+  }
+  // The whole blob of `target` in rounds of 32 reads; false if any answer was not data.
+  bool ReadAll(protocol::UploadTarget target, std::vector<uint8_t>& blob, uint32_t& crc) {
+    blob.clear();
+    uint32_t total = 1;
+    for (uint32_t off = 0; off < total;) {
+      for (int k = 0; k < 32 && off + k * 512u < total; ++k) Read(target, off + k * 512u);
+      const Answers a = Collect();
+      if (!a.errors.empty() || a.data.empty()) return false;
+      for (size_t i = 0; i < a.data.size(); ++i) {
+        EXPECT_EQ(a.data[i].offset, off) << "answers in order, contiguous";
+        if (off == 0) crc = a.data[i].blob_crc32;
+        EXPECT_EQ(a.data[i].blob_crc32, crc) << "one snapshot";
+        total = a.data[i].total_len;
+        blob.insert(blob.end(), a.bytes[i].begin(), a.bytes[i].end());
+        off += static_cast<uint32_t>(a.bytes[i].size());
+      }
+    }
+    return true;
+  }
+};
+
+TEST_F(MainLoopReadbackTest, TheTableAndTheCalibrationInUseComeBackByteForByte) {
+  InstallDemoBlobs();
+  Start();
+  std::vector<uint8_t> blob;
+  uint32_t crc = 0;
+  ASSERT_TRUE(ReadAll(protocol::UploadTarget::kLut, blob, crc));
+  std::vector<uint8_t> want(kColorLutBlobBytes);
+  const Result<size_t> n = SerializeLut(loop_->lut(), want);
+  ASSERT_TRUE(n.ok());
+  want.resize(*n);
+  EXPECT_EQ(blob, want);
+  EXPECT_EQ(crc, Crc32(want));
+  ColorLut back;
+  EXPECT_TRUE(ParseLut(blob, back).ok());
+  EXPECT_EQ(back.Id(), loop_->status().lut_id);
+
+  ASSERT_TRUE(ReadAll(protocol::UploadTarget::kCalibration, blob, crc));
+  RigCalibration cal;
+  ASSERT_TRUE(ParseCalibration(blob, cal).ok());
+  EXPECT_EQ(cal.calibration_id, loop_->status().calibration_id);
+  EXPECT_EQ(crc, Crc32(blob));
+}
+
+TEST_F(MainLoopReadbackTest, RefusalsNameTheProblemAndALaterReadFromZeroWorks) {
+  Start();  // no calibration stored: the built-in table is in use
+  using protocol::CommandError;
+  using protocol::UploadTarget;
+  auto code = [](CommandError e) { return static_cast<uint8_t>(e); };
+  Read(UploadTarget::kLut, 512);          // no snapshot yet
+  Read(UploadTarget::kLut, 0, 0);         // length 0
+  Read(UploadTarget::kLut, 0, 513);       // beyond a chunk
+  Read(static_cast<UploadTarget>(3), 0);  // unknown target
+  Read(UploadTarget::kCalibration, 0);    // nothing in use
+  Answers a = Collect();
+  EXPECT_TRUE(a.data.empty());
+  const std::vector<std::pair<uint8_t, uint32_t>> want = {{code(CommandError::kNoSnapshot), 0},
+                                                          {code(CommandError::kBadValue), 512},
+                                                          {code(CommandError::kBadValue), 512},
+                                                          {code(CommandError::kBadTarget), 0},
+                                                          {code(CommandError::kBadTarget), 0}};
+  EXPECT_EQ(a.errors, want);
+
+  // Interrupted half way: the reader stops, the device holds nothing for it.
+  Read(UploadTarget::kLut, 0);
+  Read(UploadTarget::kLut, 512);
+  a = Collect();
+  ASSERT_EQ(a.data.size(), 2u);
+  const uint32_t total = a.data[0].total_len;
+  Read(UploadTarget::kLut, total);  // at the end
+  a = Collect();
+  ASSERT_EQ(a.errors.size(), 1u);
+  EXPECT_EQ(a.errors[0], std::make_pair(code(CommandError::kBadOffset), total));
+  // An upload begin reuses the buffer: the snapshot is gone, and no read while it is open.
+  const std::span<const uint8_t> b = BuiltInLutBlob();
+  UploadBegin(UploadTarget::kLut, b.size(), Crc32(b));
+  Read(UploadTarget::kLut, 1024);
+  a = Collect();
+  ASSERT_EQ(a.errors.size(), 1u);
+  EXPECT_EQ(a.errors[0].first, code(CommandError::kBusy));
+  Upload(UploadTarget::kLut, b, Crc32(b));  // begins again and completes
+  Read(UploadTarget::kLut, 1024);
+  a = Collect();
+  ASSERT_EQ(a.errors.size(), 1u);
+  EXPECT_EQ(a.errors[0].first, code(CommandError::kNoSnapshot));
+  // From 0 again: the whole table, the uploaded one.
+  std::vector<uint8_t> blob;
+  uint32_t crc = 0;
+  ASSERT_TRUE(ReadAll(UploadTarget::kLut, blob, crc));
+  EXPECT_TRUE(std::equal(blob.begin(), blob.end(), b.begin(), b.end()));
+}
+
+TEST_F(MainLoopReadbackTest, WithNoRoomOnTheLinkAReadIsBusyAndBallStatesKeepTheirRoom) {
+  InstallDemoBlobs();
+  Start();
+  uart_.TakeBytes();
+  uart_.ring = 2 * kTxReserveBytes;  // a line that does not drain
+  uart_.queued = kTxReserveBytes;
+  Read(protocol::UploadTarget::kLut, 0);
+  const Answers a = Collect();
+  EXPECT_TRUE(a.data.empty());
+  ASSERT_EQ(a.errors.size(), 1u);
+  EXPECT_EQ(a.errors[0].first, static_cast<uint8_t>(protocol::CommandError::kBusy));
+  camera_.AddRegular(1, 33333);
+  loop_->RunUntilFinished();
+  int balls = 0;
+  protocol::Decoder dec;
+  protocol::FrameView f;
+  for (uint8_t b : uart_.bytes())
+    balls += dec.Push(b, f) && f.type == protocol::MsgType::kBallState;
+  EXPECT_EQ(balls, 1) << "the pair's ball state still went out";
 }
 
 }  // namespace

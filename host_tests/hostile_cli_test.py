@@ -491,6 +491,57 @@ class PythonSources(Base):
                           "(apt install python3-serial, or pip install pyserial)"])
 
 
+
+class ReadBack(Base):
+    """`ballvision readback` against a fake device on TCP that answers `serve` reads of a blob,
+    then hangs up: nothing is written, the old file is kept, the message says how far it got."""
+    def device(self, blob, serve):
+        sys.path.insert(0, PYLINK)
+        from ballvision_link.protocol import Decoder, encode_frame
+        srv = socket.socket()
+        srv.bind(("127.0.0.1", 0))
+        srv.listen(1)
+
+        def run():
+            c, _ = srv.accept()
+            dec, served = Decoder(), 0
+            while served < serve:
+                data = c.recv(4096)
+                if not data:
+                    break
+                for m in dec.feed(data):
+                    if not isinstance(m, tuple) or m[0] != 0x2C:
+                        continue
+                    _, off, n = struct.unpack("<BIH", m[2])
+                    head = struct.pack("<IBIII", m[1], 2, len(blob), zlib.crc32(blob), off)
+                    c.sendall(encode_frame(0x0E, served, head + blob[off:off + n]))
+                    served += 1
+            c.close()
+            srv.close()
+        threading.Thread(target=run, daemon=True).start()
+        return f"tcp:127.0.0.1:{srv.getsockname()[1]}"
+
+    def test_a_read_cut_off_writes_nothing(self):
+        out = self.path("table.lut")
+        write(out, b"old table")
+        src = self.device(bytes(range(256)) * 20, 4)
+        self.refused(["readback", src, "--out", out, "--seconds", "20"], 1,
+                     "ballvision readback: the link closed after 2048 of 5120 bytes; "
+                     f"{out} not written", keep=[out])
+
+    def test_a_blob_that_does_not_parse_is_not_written(self):
+        out = self.path("table.lut")
+        src = self.device(bytes(range(256)) * 2, 10)
+        self.refused(["readback", src, "--out", out, "--seconds", "20"], 1,
+                     "the blob read back does not parse: ", keep=[out])
+        self.assertFalse(os.path.exists(out))
+
+    def test_a_recording_or_a_bad_choice_is_refused(self):
+        self.refused(["readback", GOLDEN, "--out", self.path("t.lut")], 1,
+                     "is a recording; a read-back needs a live link")
+        self.refused(["readback", GOLDEN, "--out", self.path("t.lut"), "--what", "x"], 2,
+                     "--what: got 'x', expected lut or calibration")
+
 if __name__ == "__main__":
     BV = os.path.abspath(sys.argv.pop(1))
     unittest.main()

@@ -79,6 +79,49 @@ TEST(LinkMessages, CaptureFrameChecksSizeAgainstMode) {
                "capture frame: size disagrees with the mode");
 }
 
+TEST(LinkMessages, BlobDataRoundTripAndBounds) {
+  uint8_t data[protocol::kBlobDataBytes + 1] = {};
+  for (size_t i = 0; i < sizeof data; ++i) data[i] = static_cast<uint8_t>(i * 7);
+  protocol::BlobData in;
+  in.cmd_seq = 41, in.target = 2, in.total_len = 65552, in.blob_crc32 = 0xA1B2C3D4u;
+  in.offset = 65552 - 16, in.data = std::span<const uint8_t>(data, 16);
+  std::array<uint8_t, protocol::kMaxWireFrameBytes> wire{};
+  const Result<size_t> n = protocol::EncodeBlobData(in, 9, wire);
+  ASSERT_TRUE(n.ok());
+  protocol::Decoder d;
+  const protocol::FrameView f = DecodeOne(std::span<const uint8_t>(wire.data(), *n), d);
+  EXPECT_EQ(f.type, MsgType::kBlobData);
+  protocol::BlobData out;
+  ASSERT_TRUE(protocol::ParseBlobData(f.payload, out).ok());
+  EXPECT_EQ(out.cmd_seq, 41u);
+  EXPECT_EQ(out.total_len, 65552u);
+  EXPECT_EQ(out.blob_crc32, 0xA1B2C3D4u);
+  EXPECT_EQ(out.offset, 65536u);
+  EXPECT_TRUE(std::equal(out.data.begin(), out.data.end(), data, data + 16));
+  // One byte past the blob's end, an unknown target, 513 bytes: refused.
+  std::vector<uint8_t> p(f.payload.begin(), f.payload.end());
+  p.push_back(0);
+  EXPECT_STREQ(protocol::ParseBlobData(p, out).message(),
+               "blob data: bytes beyond the blob's length");
+  p.pop_back();
+  p[4] = 3;
+  EXPECT_STREQ(protocol::ParseBlobData(p, out).message(), "blob data: target not 1 or 2");
+  in.data = std::span<const uint8_t>(data, protocol::kBlobDataBytes + 1);
+  EXPECT_FALSE(protocol::EncodeBlobData(in, 0, wire).ok());
+  // The read command's layout.
+  const Result<size_t> r = protocol::EncodeReadBlob({2, 1024, 512}, 5, wire);
+  ASSERT_TRUE(r.ok());
+  protocol::Decoder d2;
+  const protocol::FrameView rf = DecodeOne(std::span<const uint8_t>(wire.data(), *r), d2);
+  EXPECT_EQ(rf.type, MsgType::kReadBlob);
+  protocol::ReadBlobRequest req;
+  ASSERT_TRUE(protocol::ParseReadBlob(rf.payload, req).ok());
+  EXPECT_EQ(req.target, 2);
+  EXPECT_EQ(req.offset, 1024u);
+  EXPECT_EQ(req.length, 512);
+  EXPECT_FALSE(protocol::ParseReadBlob(rf.payload.first(6), req).ok());
+}
+
 TEST(LinkMessages, CaptureChunkBounds) {
   uint8_t data[protocol::kCaptureChunkBytes + 1] = {};
   protocol::CaptureChunk c;

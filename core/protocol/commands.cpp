@@ -24,6 +24,11 @@ CommandResult CommandHandler::Handle(const FrameView& frame, uint32_t reply_seq,
   result.reply_is_error = result.error != CommandError::kNone;
   if (result.reply_is_error) ++errors_;
   reply_len = 0;
+  if (frame.type == MsgType::kReadBlob && !result.reply_is_error) {
+    auto n = EncodeBlobData(read_, reply_seq, reply);
+    if (n.ok()) reply_len = *n;
+    return result;
+  }
   if ((frame.type == MsgType::kRequestStatus || frame.type == MsgType::kClockSync ||
        result.deferred) &&
       !result.reply_is_error) {
@@ -69,6 +74,43 @@ CommandError CommandHandler::TeachCommand(std::span<const uint8_t> p, uint32_t c
   return CommandError::kNone;
 }
 
+// A snapshot at offset 0 would overwrite an open upload's staged bytes: refused while one is
+// open. detail: the snapshot's length for an offset beyond it.
+CommandError CommandHandler::ReadCommand(std::span<const uint8_t> p, uint32_t cmd_seq,
+                                         uint32_t& detail) {
+  ReadBlobRequest req;
+  if (!ParseReadBlob(p, req).ok()) return CommandError::kBadLength;
+  if (!ValidTarget(req.target)) return CommandError::kBadTarget;
+  if (req.length == 0 || req.length > kBlobDataBytes) {
+    detail = kBlobDataBytes;
+    return CommandError::kBadValue;
+  }
+  if (uploading_) return CommandError::kBusy;
+  BlobData d;
+  const Status s =
+      readback_->ReadBlob(static_cast<UploadTarget>(req.target), req.offset, req.length, d);
+  switch (s.code()) {
+    case StatusCode::kOk:
+      break;
+    case StatusCode::kFailedPrecondition:
+      return CommandError::kNoSnapshot;
+    case StatusCode::kUnavailable:
+      return CommandError::kBusy;
+    case StatusCode::kOutOfRange:
+      detail = d.total_len;
+      return CommandError::kBadOffset;
+    case StatusCode::kUnimplemented:
+      return CommandError::kUnsupported;  // the board has no buffer for a snapshot
+    default:
+      return CommandError::kBadTarget;  // nothing of that kind in use
+  }
+  read_ = d;
+  read_.cmd_seq = cmd_seq;
+  read_.target = req.target;
+  read_.offset = req.offset;
+  return CommandError::kNone;
+}
+
 CommandError CommandHandler::Dispatch(const FrameView& frame, CommandResult& result,
                                       uint32_t& detail) {
   const auto p = frame.payload;
@@ -108,6 +150,9 @@ CommandError CommandHandler::Dispatch(const FrameView& frame, CommandResult& res
     case MsgType::kTeachBall:
       if (teach_ == nullptr) break;
       return TeachCommand(p, frame.seq, result);
+    case MsgType::kReadBlob:
+      if (readback_ == nullptr) break;
+      return ReadCommand(p, frame.seq, detail);
     case MsgType::kSetFieldHalf:
     case MsgType::kOdometry:
     case MsgType::kSetPose:

@@ -16,6 +16,8 @@
 //   teach ball      (0x2B): where u8 | a f32 | b f32        -> ack / error once the next
 //                   frame pair was taught from (where: 0 floor point x y m, 1 omni / 2 persp
 //                   pixel u v); refused during an upload
+//   read blob       (0x2C): target u8 | offset u32 | length u16 -> blob data (0x0E) / error;
+//                   offset 0 takes a new snapshot of what the target has in use
 // Replies: ack (0x10): cmd_type u8 | cmd_seq u32
 //          error (0x11): cmd_type u8 | cmd_seq u32 | code u8 (CommandError) | detail u32
 #include <cstddef>
@@ -53,6 +55,9 @@ enum class CommandError : uint8_t {
   // Teaching the ball colour (detail: which camera, 0 omni / 1 persp, where it applies).
   kNoBall = 15,        // nothing ball-like at the point: no region to learn from; old table kept
   kTeachRefused = 16,  // the learnt colour would take the field or lines; old table kept
+  // Read-back: a read beyond offset 0 with no snapshot (none taken, or its buffer was used since
+  // by an upload or a teach): read again from offset 0.
+  kNoSnapshot = 17,
 };
 
 /// Where uploads go: the firmware implements it over the A/B blob store, tests with RAM.
@@ -107,6 +112,18 @@ class TeachSink {
   virtual Status RequestTeach(const TeachRequest& request, uint32_t cmd_seq) = 0;
 };
 
+/// Read-back of the blob in use (the colour table as adapted, or the calibration).
+class ReadbackSink {
+ public:
+  virtual ~ReadbackSink() = default;
+  /// At offset 0 serialises what `target` has in use into a snapshot; any offset then returns
+  /// up to `max_len` of the snapshot's bytes from `offset` in `out` (total_len, blob_crc32 and
+  /// data set). kFailedPrecondition: no snapshot; kUnavailable: not now (a teach is pending, or
+  /// no room on the link for the reply: retry); kOutOfRange: offset at or beyond the end
+  /// (total_len set); kNotFound: nothing in use to read; kUnimplemented: no snapshot buffer.
+  virtual Status ReadBlob(UploadTarget target, uint32_t offset, size_t max_len, BlobData& out) = 0;
+};
+
 /// The ack (error == kNone) or error reply to command `cmd_type` / `cmd_seq`, as a wire frame.
 Result<size_t> EncodeCommandReply(MsgType cmd_type, uint32_t cmd_seq, CommandError error,
                                   uint32_t detail, uint32_t reply_seq, std::span<uint8_t> out);
@@ -131,9 +148,16 @@ class CommandHandler {
   /// Without a PoseSink the pose commands are answered kUnknownCommand.
   /// Without a CaptureSink the capture commands are answered kUnknownCommand.
   /// Without a TeachSink the teach command is answered kUnknownCommand.
+  /// Without a ReadbackSink the read command is answered kUnknownCommand.
   CommandHandler(UploadSink& uploads, ParamSink& params, PoseSink* pose = nullptr,
-                 CaptureSink* capture = nullptr, TeachSink* teach = nullptr)
-      : uploads_(uploads), params_(params), pose_(pose), capture_(capture), teach_(teach) {}
+                 CaptureSink* capture = nullptr, TeachSink* teach = nullptr,
+                 ReadbackSink* readback = nullptr)
+      : uploads_(uploads),
+        params_(params),
+        pose_(pose),
+        capture_(capture),
+        teach_(teach),
+        readback_(readback) {}
 
   /// Handles one verified frame from the Decoder and encodes the reply (ack or error) into
   /// `reply` (a whole wire frame). Returns the reply's size in `reply_len` (0: no reply).
@@ -149,12 +173,15 @@ class CommandHandler {
   CommandError UploadCommit(std::span<const uint8_t> p);
   CommandError PoseCommand(MsgType type, std::span<const uint8_t> p);
   CommandError TeachCommand(std::span<const uint8_t> p, uint32_t cmd_seq, CommandResult& result);
+  CommandError ReadCommand(std::span<const uint8_t> p, uint32_t cmd_seq, uint32_t& detail);
 
   UploadSink& uploads_;
   ParamSink& params_;
   PoseSink* pose_;
   CaptureSink* capture_;
   TeachSink* teach_;
+  ReadbackSink* readback_;
+  BlobData read_;  // a read's answer, encoded by Handle()
   bool uploading_ = false;
   UploadTarget target_ = UploadTarget::kCalibration;
   size_t total_len_ = 0;

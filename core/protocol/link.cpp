@@ -244,4 +244,52 @@ bool CopyCaptureBytes(const uint8_t* src, size_t stride, CaptureMode mode, size_
   return true;
 }
 
+Result<size_t> EncodeReadBlob(const ReadBlobRequest& r, uint32_t seq, std::span<uint8_t> out) {
+  uint8_t p[kReadBlobBytes];
+  ByteWriter w(p);
+  w.U8(r.target), w.U32(r.offset), w.U16(r.length);
+  return Finish(MsgType::kReadBlob, seq, w, out);
+}
+
+Status ParseReadBlob(std::span<const uint8_t> payload, ReadBlobRequest& out) {
+  if (payload.size() != kReadBlobBytes) {
+    return Status(StatusCode::kInvalidArgument, "read blob: length is not 7 bytes");
+  }
+  ByteReader r(payload);
+  out.target = r.U8(), out.offset = r.U32(), out.length = r.U16();
+  return Status();
+}
+
+Result<size_t> EncodeBlobData(const BlobData& d, uint32_t seq, std::span<uint8_t> out) {
+  if (d.data.empty() || d.data.size() > kBlobDataBytes) {
+    return Status(StatusCode::kInvalidArgument, "blob data: 1..512 data bytes");
+  }
+  uint8_t p[kBlobDataHeaderBytes + kBlobDataBytes];
+  ByteWriter w(p);
+  w.U32(d.cmd_seq), w.U8(d.target);
+  w.U32(d.total_len), w.U32(d.blob_crc32), w.U32(d.offset);
+  w.Bytes(d.data);
+  return Finish(MsgType::kBlobData, seq, w, out);
+}
+
+Status ParseBlobData(std::span<const uint8_t> payload, BlobData& out) {
+  if (payload.size() <= kBlobDataHeaderBytes ||
+      payload.size() > kBlobDataHeaderBytes + kBlobDataBytes) {
+    return Status(StatusCode::kInvalidArgument, "blob data: 1..512 data bytes");
+  }
+  ByteReader r(payload);
+  BlobData d;
+  d.cmd_seq = r.U32(), d.target = r.U8();
+  d.total_len = r.U32(), d.blob_crc32 = r.U32(), d.offset = r.U32();
+  d.data = payload.subspan(kBlobDataHeaderBytes);
+  if (d.target != 1 && d.target != 2) {
+    return Status(StatusCode::kInvalidArgument, "blob data: target not 1 or 2");
+  }
+  if (d.offset > d.total_len || d.data.size() > d.total_len - d.offset) {
+    return Status(StatusCode::kInvalidArgument, "blob data: bytes beyond the blob's length");
+  }
+  out = d;
+  return Status();
+}
+
 }  // namespace bv::protocol

@@ -12,6 +12,9 @@
 //   capture chunk      (0x0C): capture_id u16 | pair_index u16 | camera u8 | reserved u8 |
 //                              offset u32 | data (1..kCaptureChunkBytes)
 //   capture end        (0x0D): capture_id u16 | requested u16 | pairs_sent u16 | reason u8
+//   read blob          (0x2C): target u8 | offset u32 | length u16 (1..kBlobDataBytes)
+//   blob data          (0x0E): cmd_seq u32 | target u8 | total_len u32 | blob_crc32 u32 |
+//                              offset u32 | data (1..kBlobDataBytes)
 #include <cstddef>
 #include <cstdint>
 #include <span>
@@ -125,6 +128,37 @@ Result<size_t> EncodeCaptureEnd(const CaptureEnd& e, uint32_t seq, std::span<uin
 Status ParseCaptureFrame(std::span<const uint8_t> payload, CaptureFrame& out);
 Status ParseCaptureChunk(std::span<const uint8_t> payload, CaptureChunk& out);
 Status ParseCaptureEnd(std::span<const uint8_t> payload, CaptureEnd& out);
+
+// --- read-back of a blob in use (docs/protocol.md, "Read-back") ---
+
+inline constexpr size_t kReadBlobBytes = 7;
+inline constexpr size_t kBlobDataBytes = 512;
+inline constexpr size_t kBlobDataHeaderBytes = 17;
+
+struct ReadBlobRequest {
+  uint8_t target = 0;  // UploadTarget: 1 calibration, 2 colour table
+  uint32_t offset = 0;
+  uint16_t length = 0;
+};
+
+/// Bytes of the device's snapshot of the blob in use. The snapshot is taken by a read at
+/// offset 0; blob_crc32 (the whole blob's CRC) names it, so a reader notices when another read
+/// from 0 replaced it.
+struct BlobData {
+  uint32_t cmd_seq = 0;  // the read command answered
+  uint8_t target = 0;
+  uint32_t total_len = 0;
+  uint32_t blob_crc32 = 0;
+  uint32_t offset = 0;
+  std::span<const uint8_t> data;
+};
+
+Result<size_t> EncodeReadBlob(const ReadBlobRequest& r, uint32_t seq, std::span<uint8_t> out);
+/// kInvalidArgument: wrong length. Target and range are the handler's business.
+Status ParseReadBlob(std::span<const uint8_t> payload, ReadBlobRequest& out);
+Result<size_t> EncodeBlobData(const BlobData& d, uint32_t seq, std::span<uint8_t> out);
+/// kInvalidArgument: wrong length, unknown target, bytes beyond total_len.
+Status ParseBlobData(std::span<const uint8_t> payload, BlobData& out);
 
 /// Bytes [offset, offset + out.size()) of the decimated YUYV image of a 640x480 source with
 /// `stride` bytes per row. Decimation keeps pixel (k*x, k*y); its chroma is that of the

@@ -30,7 +30,9 @@ constexpr char kSchema[] =
     "exposure_us omni_exposure_us persp_exposure_us u64,omni_sequence persp_sequence u32,"
     "image_bytes u32;"
     "capture_chunk:capture_id pair_index u16,camera reserved u8,offset u32,data;"
-    "capture_end:capture_id requested pairs_sent u16,reason u8";
+    "capture_end:capture_id requested pairs_sent u16,reason u8;"
+    "read_blob:target u8,offset u32,length u16;"
+    "blob_data:cmd_seq u32,target u8,total_len blob_crc32 offset u32,data";
 
 bool Finite(float v) { return std::isfinite(v); }
 

@@ -39,6 +39,7 @@ enum class MsgType : uint8_t {
   kCaptureFrame = 0x0B,  // one captured pair: exposure times, size, mode
   kCaptureChunk = 0x0C,  // image bytes of a captured pair
   kCaptureEnd = 0x0D,    // a capture finished, was stopped or cut short
+  kBlobData = 0x0E,      // bytes of a blob in use, answering kReadBlob
   kAck = 0x10,
   kError = 0x11,
   kRequestStatus = 0x20,
@@ -53,6 +54,7 @@ enum class MsgType : uint8_t {
   kCaptureStart = 0x29,  // stream the next N pairs (ack / error)
   kCaptureStop = 0x2A,   // end a running capture (ack; kCaptureEnd follows)
   kTeachBall = 0x2B,     // learn the ball's colour where it lies (ack / error after a pair)
+  kReadBlob = 0x2C,      // read back the colour table or calibration in use (kBlobData)
 };
 
 /// 16-bit hash of the payload layouts below; bumped automatically when they change, so a

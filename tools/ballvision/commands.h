@@ -13,6 +13,7 @@ int CmdListen(int argc, char** argv);     // cmd_listen.cpp
 int CmdSeq(int argc, char** argv);        // cmd_seq.cpp: inspect / convert captured sequences
 int CmdEvalField(int argc, char** argv);  // cmd_field.cpp: pose, lines, obstacles vs truth
 int CmdCapture(int argc, char** argv);    // cmd_capture.cpp: frames over the link
+int CmdReadback(int argc, char** argv);   // cmd_readback.cpp: blob in use over the link
 int CmdSync(int argc, char** argv);       // cmd_sync.cpp: clock sync with the coprocessor
 
 }  // namespace bv::cli

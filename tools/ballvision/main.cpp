@@ -28,6 +28,7 @@ constexpr Command kCommands[] = {
     {"seq", bv::cli::CmdSeq, "info | to-raw: inspect or convert a captured sequence"},
     {"capture", bv::cli::CmdCapture, "SOURCE --out SEQ: frame pairs from the coprocessor"},
     {"sync", bv::cli::CmdSync, "SOURCE: clock offset and drift of the coprocessor"},
+    {"readback", bv::cli::CmdReadback, "SOURCE --out FILE: the colour table or calibration in use"},
 };
 
 void Usage(FILE* out) {

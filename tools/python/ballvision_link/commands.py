@@ -11,7 +11,7 @@ from .protocol import encode_frame
 MSG_ACK, MSG_ERROR = 0x10, 0x11
 REQUEST_STATUS, SET_PARAM, UPLOAD_BEGIN, UPLOAD_CHUNK, UPLOAD_COMMIT = 0x20, 0x21, 0x22, 0x23, 0x24
 SET_FIELD_HALF, ODOMETRY, SET_POSE = 0x25, 0x26, 0x27
-CLOCK_SYNC, CAPTURE_START, CAPTURE_STOP, TEACH_BALL = 0x28, 0x29, 0x2A, 0x2B
+CLOCK_SYNC, CAPTURE_START, CAPTURE_STOP, TEACH_BALL, READ_BLOB = 0x28, 0x29, 0x2A, 0x2B, 0x2C
 TEACH_FLOOR, TEACH_OMNI_PIXEL, TEACH_PERSP_PIXEL = 0, 1, 2
 CAPTURE_FULL, CAPTURE_HALF, CAPTURE_QUARTER = 0, 1, 2
 CAPTURE_OMNI, CAPTURE_PERSP = 1, 2
@@ -22,7 +22,8 @@ ERRORS = {1: "unknown command", 2: "bad length", 3: "bad target", 4: "no upload"
           10: "bad value", 11: "incomplete", 12: "busy (a capture, an open upload or a pending teach)",
           13: "unsupported by this board", 14: "no capture running",
           15: "no ball-coloured region where the ball was said to lie",
-          16: "the taught colour would take the field"}
+          16: "the taught colour would take the field",
+          17: "no read-back snapshot (read again from offset 0)"}
 
 
 def request_status(seq: int) -> bytes:
@@ -73,6 +74,15 @@ def teach_ball(seq: int, where: int, a: float, b: float) -> bytes:
     if where not in (TEACH_FLOOR, TEACH_OMNI_PIXEL, TEACH_PERSP_PIXEL):
         raise ValueError("teach: where must be 0 (floor), 1 (omni pixel) or 2 (persp pixel)")
     return encode_frame(TEACH_BALL, seq, struct.pack("<Bff", where, a, b))
+
+
+def read_blob(seq: int, target: int, offset: int, length: int = MAX_CHUNK) -> bytes:
+    """Read back `length` (1..512) bytes at `offset` of the blob `target` has in use (1
+    calibration, 2 colour table, as adapted); offset 0 takes a new snapshot. Answered by a
+    BlobData packet or an error (17: no snapshot, 12: busy, retry)."""
+    if target not in (TARGET_CALIBRATION, TARGET_LUT) or not 1 <= length <= MAX_CHUNK:
+        raise ValueError("read_blob: target 1 or 2, length 1..512")
+    return encode_frame(READ_BLOB, seq, struct.pack("<BIH", target, offset, length))
 
 
 def capture_stop(seq: int) -> bytes:

@@ -14,6 +14,8 @@ MSG_OBSTACLES = 0x05
 MSG_GOALS = 0x06
 MSG_CLOCK_SYNC_REPLY = 0x0A
 MSG_CAPTURE_FRAME, MSG_CAPTURE_CHUNK, MSG_CAPTURE_END = 0x0B, 0x0C, 0x0D
+MSG_BLOB_DATA = 0x0E
+BLOB_DATA_BYTES = 512
 HEADER = struct.Struct("<BBHIH")
 WIRE_OVERHEAD_BYTES = HEADER.size + 4  # header + CRC-32
 MAX_PAYLOAD = 1024
@@ -44,7 +46,9 @@ _SCHEMA = (
     "exposure_us omni_exposure_us persp_exposure_us u64,omni_sequence persp_sequence u32,"
     "image_bytes u32;"
     "capture_chunk:capture_id pair_index u16,camera reserved u8,offset u32,data;"
-    "capture_end:capture_id requested pairs_sent u16,reason u8")
+    "capture_end:capture_id requested pairs_sent u16,reason u8;"
+    "read_blob:target u8,offset u32,length u16;"
+    "blob_data:cmd_seq u32,target u8,total_len blob_crc32 offset u32,data")
 SCHEMA_HASH = zlib.crc32(_SCHEMA.encode()) & 0xFFFF
 
 MODES = ("none", "rolling", "flying", "bouncing")
@@ -59,6 +63,7 @@ assert _BALL.size == 98 and _STATUS.size == 104 and _POSE.size == 42
 _SYNC_REPLY = struct.Struct("<IQQQ")
 _CAPTURE_FRAME = struct.Struct("<HHHBBHHQQQIII")
 _CAPTURE_CHUNK_HEAD = struct.Struct("<HHBBI")
+_BLOB_DATA_HEAD = struct.Struct("<IBIII")
 _CAPTURE_END = struct.Struct("<HHHB")
 assert _LINES_HEAD.size == 12 and _OBSTACLES_HEAD.size == 10
 assert _SYNC_REPLY.size == 28 and _CAPTURE_FRAME.size == 48 and _CAPTURE_CHUNK_HEAD.size == 10
@@ -208,6 +213,20 @@ class CaptureChunk:
     capture_id: int
     pair_index: int
     camera: int  # 0 omni, 1 persp
+    offset: int
+    data: bytes
+
+
+@dataclass
+class BlobData:
+    """Bytes [offset, offset + len(data)) of the device's snapshot of a blob in use (target 1
+    calibration, 2 colour table), answering read command `cmd_seq`; blob_crc32 names the
+    snapshot (zlib.crc32 of the whole blob)."""
+    seq: int
+    cmd_seq: int
+    target: int
+    total_len: int
+    blob_crc32: int
     offset: int
     data: bytes
 
@@ -368,6 +387,16 @@ def parse_capture_chunk(seq: int, payload: bytes) -> Optional[CaptureChunk]:
     return CaptureChunk(seq, cid, pair, camera, offset, bytes(payload[_CAPTURE_CHUNK_HEAD.size:]))
 
 
+def parse_blob_data(seq: int, payload: bytes) -> Optional[BlobData]:
+    n = len(payload) - _BLOB_DATA_HEAD.size
+    if not 0 < n <= BLOB_DATA_BYTES:
+        return None
+    cmd_seq, target, total, crc, offset = _BLOB_DATA_HEAD.unpack_from(payload)
+    if target not in (1, 2) or offset + n > total:
+        return None
+    return BlobData(seq, cmd_seq, target, total, crc, offset, bytes(payload[_BLOB_DATA_HEAD.size:]))
+
+
 def parse_capture_end(seq: int, payload: bytes) -> Optional[CaptureEnd]:
     if len(payload) != _CAPTURE_END.size:
         return None
@@ -403,6 +432,7 @@ _PARSERS = {MSG_BALL_STATE: parse_ball_state,
             MSG_CAPTURE_FRAME: parse_capture_frame,
             MSG_CAPTURE_CHUNK: parse_capture_chunk,
             MSG_CAPTURE_END: parse_capture_end,
+            MSG_BLOB_DATA: parse_blob_data,
             MSG_GOALS: parse_goals}
 
 

@@ -130,6 +130,32 @@ if __name__ == "__main__":
     unittest.main()
 
 
+class ReadBackTest(unittest.TestCase):
+    """The read-back command and its BlobData answer, laid out as core/protocol/link.h says."""
+    def test_read_blob_and_blob_data(self):
+        from ballvision_link import commands
+        from ballvision_link.protocol import MSG_BLOB_DATA
+        frame = commands.read_blob(5, commands.TARGET_LUT, 1024, 512)
+        msgs = Decoder().feed(frame)
+        self.assertEqual(msgs, [(commands.READ_BLOB, 5, struct.pack("<BIH", 2, 1024, 512))])
+        with self.assertRaises(ValueError):
+            commands.read_blob(6, 3, 0)
+        with self.assertRaises(ValueError):
+            commands.read_blob(6, 2, 0, 513)
+        data = bytes(range(16))
+        ok = struct.pack("<IBIII", 41, 2, 65552, 0xA1B2C3D4, 65536) + data
+        (m,) = Decoder().feed(encode_frame(MSG_BLOB_DATA, 9, ok))
+        self.assertEqual((m.seq, m.cmd_seq, m.target, m.total_len, m.blob_crc32, m.offset, m.data),
+                         (9, 41, 2, 65552, 0xA1B2C3D4, 65536, data))
+        for bad in (ok + b"\0",  # past the blob's end
+                    ok[:4] + b"\3" + ok[5:],  # unknown target
+                    ok[:17]):  # no data
+            with self.subTest(bad=bad[:17].hex()):
+                dec = Decoder()
+                self.assertEqual(dec.feed(encode_frame(MSG_BLOB_DATA, 9, bad)), [])
+                self.assertEqual(dec.errors["payload"], 1)
+
+
 class CommandsTest(unittest.TestCase):
     def test_upload_frames_decode_in_order(self):
         from ballvision_link import commands
