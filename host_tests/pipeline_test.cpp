@@ -20,6 +20,7 @@
 #include "tools/ballvision/demo_scene.h"
 #include "tools/ballvision/run_common.h"
 #include "tools/ballvision/run_pipeline.h"
+#include "tools/ballvision/truth_csv.h"
 
 namespace bv {
 namespace {
@@ -197,8 +198,14 @@ struct SimRun {
   std::unique_ptr<ColorLut> lut = std::make_unique<ColorLut>();
   std::unique_ptr<Pipeline> pipeline = std::make_unique<Pipeline>();
   std::vector<cli::FrameRecord> recs;
-  cli::CsvTable truth;
+  cli::TruthCsv truth;
 };
+
+// A finite number in the truth's field; false when it is empty or not a number.
+bool Num(const cli::TruthCsv& t, size_t row, const char* column, double& v) {
+  std::string err;
+  return !t.Empty(row, column) && t.Number(row, column, v, false, err);
+}
 
 void RunSim(const char* scene, bool stills, SimRun& r) {
   std::string err, used;
@@ -210,8 +217,8 @@ void RunSim(const char* scene, bool stills, SimRun& r) {
   cli::RunSettings rs;
   rs.reset_each_frame = stills;
   ASSERT_TRUE(cli::RunSequence(seq, *r.pipeline, rs, r.recs, err)) << err;
-  ASSERT_TRUE(cli::ReadCsv(SimDir(scene) + "/truth.csv", r.truth, err)) << err;
-  ASSERT_EQ(r.truth.rows.size(), r.recs.size());
+  ASSERT_TRUE(r.truth.Load(SimDir(scene) + "/truth.csv", {}, err)) << err;
+  ASSERT_EQ(r.truth.rows(), r.recs.size());
 }
 
 TEST(PipelineSim, StaticGridMeetsTheAccuracyGoals) {
@@ -223,9 +230,8 @@ TEST(PipelineSim, StaticGridMeetsTheAccuracyGoals) {
   std::map<double, std::vector<double>> near;  // height -> errors at <= 2 m
   for (size_t i = 0; i < r.recs.size(); ++i) {
     double x, y, z;
-    ASSERT_TRUE(cli::Field(r.truth.rows[i], "ball_x", x) &&
-                cli::Field(r.truth.rows[i], "ball_y", y) &&
-                cli::Field(r.truth.rows[i], "ball_z", z));
+    ASSERT_TRUE(Num(r.truth, i, "ball_x", x) && Num(r.truth, i, "ball_y", y) &&
+                Num(r.truth, i, "ball_z", z));
     const MeasurementInfo& m = r.recs[i].meas;
     ASSERT_TRUE(m.valid) << "frame " << r.recs[i].index;
     const double e = (m.p_m - Eigen::Vector3f(x, y, z)).norm();
@@ -254,17 +260,17 @@ TEST(PipelineSim, TheGoalBehindTheRobotIsFoundAndNamedByThePose) {
   ASSERT_TRUE(cli::LoadLutOrDefault("", kRefCalib, *r.lut, used, err)) << err;
   ASSERT_TRUE(r.pipeline->Init(r.cal, *r.lut, PipelineConfig{}).ok());
   ASSERT_TRUE(r.pipeline->SetFieldHalf(-1).ok());
-  ASSERT_TRUE(cli::ReadCsv(SimDir("static_grid") + "/truth.csv", r.truth, err)) << err;
+  ASSERT_TRUE(r.truth.Load(SimDir("static_grid") + "/truth.csv", {}, err)) << err;
   host::Sequence seq;
   ASSERT_TRUE(host::LoadSequence(SimDir("static_grid"), seq, err)) << err;
   int frames = 0, seen = 0, named = 0, refused = 0, kept_in_goal = 0;
   cli::RunSettings rs;
   rs.reset_each_frame = true;
   rs.on_frame = [&](const Pipeline& p, const cli::FrameRecord&) {
-    const auto& row = r.truth.rows[static_cast<size_t>(frames++)];
+    const size_t row = static_cast<size_t>(frames++);
     double rx, ry, rh_deg;
-    ASSERT_TRUE(cli::Field(row, "robot_field_x", rx) && cli::Field(row, "robot_field_y", ry) &&
-                cli::Field(row, "robot_field_heading_deg", rh_deg));
+    ASSERT_TRUE(Num(r.truth, row, "robot_field_x", rx) && Num(r.truth, row, "robot_field_y", ry) &&
+                Num(r.truth, row, "robot_field_heading_deg", rh_deg));
     // The mouth centre (-9, 0) in the robot frame (heading = field angle of robot +y).
     const double h = rh_deg * M_PI / 180.0, dx = -9.0 - rx, dy = -ry;
     const double mx = dx * std::sin(h) - dy * std::cos(h), my = dx * std::cos(h) + dy * std::sin(h);
@@ -303,10 +309,10 @@ TEST(PipelineSim, BounceIsTrackedAndPredicted) {
   SimRun r;
   RunSim("bounce", false, r);
   std::map<uint64_t, Eigen::Vector3f> truth;
-  for (const auto& row : r.truth.rows) {
+  for (size_t row = 0; row < r.truth.rows(); ++row) {
     double t, x, y, z;
-    if (cli::Field(row, "t_us", t) && cli::Field(row, "ball_x", x) &&
-        cli::Field(row, "ball_y", y) && cli::Field(row, "ball_z", z)) {
+    if (Num(r.truth, row, "t_us", t) && Num(r.truth, row, "ball_x", x) &&
+        Num(r.truth, row, "ball_y", y) && Num(r.truth, row, "ball_z", z)) {
       truth[static_cast<uint64_t>(t)] = Eigen::Vector3f(x, y, z);
     }
   }
@@ -364,8 +370,7 @@ TEST(PipelineCli, RunWritesTheDesignColumns) {
       "run",   seq.c_str(), "--calib",      calib.c_str(), "--lut", lut_path.c_str(),
       "--out", out.c_str(), "--predict-ms", "200"};
   ASSERT_EQ(cli::CmdRun(10, const_cast<char**>(argv)), 0);
-  cli::CsvTable t;
-  ASSERT_TRUE(cli::ReadCsv(out, t, err)) << err;
+  cli::TruthCsv t;
   const std::vector<std::string> want = {"index",   "t_us",
                                          "found",   "x",
                                          "y",       "z",
@@ -379,13 +384,16 @@ TEST(PipelineCli, RunWritesTheDesignColumns) {
                                          "sigma_x", "sigma_y",
                                          "sigma_z", "pose_x",
                                          "pose_y",  "pose_heading_deg"};
-  EXPECT_EQ(t.header, want);
-  ASSERT_EQ(t.rows.size(), 8u);
-  EXPECT_EQ(t.rows[0].at("index"), "10");
-  EXPECT_EQ(t.rows[5].at("persp_u"), "");  // no persp frame in row 5
-  for (const auto& row : t.rows) {
-    EXPECT_EQ(row.at("found"), "1");
-    EXPECT_EQ(row.at("pose_x"), "");  // the demo's two lines fit many places: no pose
+  std::string header;
+  std::getline(std::ifstream(out), header);
+  EXPECT_EQ(host::SplitCsvLine(header), want);
+  ASSERT_TRUE(t.Load(out, want, err)) << err;
+  ASSERT_EQ(t.rows(), 8u);
+  EXPECT_EQ(t.Text(0, "index"), "10");
+  EXPECT_EQ(t.Text(5, "persp_u"), "");  // no persp frame in row 5
+  for (size_t row = 0; row < t.rows(); ++row) {
+    EXPECT_EQ(t.Text(row, "found"), "1");
+    EXPECT_EQ(t.Text(row, "pose_x"), "");  // the demo's two lines fit many places: no pose
   }
   // Usage errors exit with 2.
   const char* bad[] = {"run", seq.c_str()};
