@@ -436,15 +436,38 @@ Status Pipeline::Process(const FrameInput& in, BallState& out) {
   stats_.pixels_read = stats_.regions_traced = stats_.overflows = 0;
   stats_.frame_errors = 0;
   if (!initialised_) return Status(StatusCode::kFailedPrecondition, "pipeline: Init() not called");
-  const RigCalibration& cal = *calibration_;
-  const float r = cal.ball_radius_m;
-
   meas_ = MeasurementInfo{};
 
   // 1. Prediction for this exposure -> image positions (attention, ball choice).
   Predict(in.t_us);
-
   // 2. Field features and the robot's pose first: this frame's ball choice uses them.
+  const bool have_field_pose = LocaliseAndSetFieldRule(in);
+  // 3. Front end per camera present.
+  DetectBalls(in, out);
+  // 4. Rays of the detections.
+  const CameraRays rays = DetectionRays(in, out);
+  // 5. What this frame contributes to the filter.
+  BallObservation obs;
+  obs.t_us = in.t_us;
+  BuildObservation(rays, out, obs);
+  // 6. Filter, then the state at the exposure time and the prediction.
+  if (obs.n_rays > 0) {
+    const uint16_t f = filter_.Update(obs);
+    meas_.filter_flags = f;
+    if (f & (kFlagOutlierRejected | kFlagOutOfField | kFlagBadTimestamp)) {
+      ++stats_.rejected_measurements;
+    }
+    out.flags |= f;
+  }
+  filter_.FillState(in.t_us, config_.predict_ahead_us, out);
+  // 7. Colour adaptation from what both cameras agree on.
+  AdaptColours(in, out);
+  // 8. A track the pose puts outside the field.
+  CheckTrackInField(have_field_pose, out);
+  return Status();
+}
+
+bool Pipeline::LocaliseAndSetFieldRule(const FrameInput& in) {
   stats_.feature_lookups = stats_.out_of_field_rejected = 0;
   if (features_ready_ && in.omni.valid()) {
     if (extractor_.Extract(in.omni, *lut_, features_).ok()) {
@@ -462,25 +485,30 @@ Status Pipeline::Process(const FrameInput& in, BallState& out) {
   // Outside the field a ball is only acquired never: a tracked one may roll out over a line.
   omni_finder_.set_reject_outside(have_field_pose && !pred_omni_.valid);
   persp_finder_.set_reject_outside(have_field_pose && !pred_persp_.valid);
+  return have_field_pose;
+}
 
-  // 3. Front end per camera present.
+void Pipeline::DetectBalls(const FrameInput& in, BallState& out) {
+  const RigCalibration& cal = *calibration_;
   if (in.omni.valid() && cal.omni.valid) out.omni = Detect(omni_finder_, in.omni, pred_omni_);
   if (in.persp.valid() && cal.persp.valid) out.persp = Detect(persp_finder_, in.persp, pred_persp_);
   if (out.omni.found && out.persp.found && !pred_omni_.valid && !pred_persp_.valid) {
     ChooseStereoPair(out.omni, out.persp);
   }
+}
 
-  // 4. Rays. A ball cut by the mirror rim or the image border has a biased centroid and size: its
-  // ray still goes to the filter, with half its radius more of centroid noise and no size cue
-  // (a raised ball at 4-5 m is seen at the rim; a ball within 1 m is cut by the persp border).
-  Ray ray_o, ray_p;
-  bool have_o = false, have_p = false;
-  const bool omni_cut = out.omni.found && std::hypot(out.omni.u_px - cal.omni.center_u,
-                                                     out.omni.v_px - cal.omni.center_v) +
-                                                  out.omni.radius_px >
-                                              omni_outer_radius_px_ - kRimMarginPx;
+// A ball cut by the mirror rim or the image border has a biased centroid and size: its ray still
+// goes to the filter, with half its radius more of centroid noise and no size cue (a raised ball
+// at 4-5 m is seen at the rim; a ball within 1 m is cut by the persp border).
+Pipeline::CameraRays Pipeline::DetectionRays(const FrameInput& in, BallState& out) const {
+  const RigCalibration& cal = *calibration_;
+  CameraRays rays;
+  rays.omni_cut = out.omni.found &&
+                  std::hypot(out.omni.u_px - cal.omni.center_u, out.omni.v_px - cal.omni.center_v) +
+                          out.omni.radius_px >
+                      omni_outer_radius_px_ - kRimMarginPx;
   const float pr = out.persp.radius_px;
-  const bool persp_cut =
+  rays.persp_cut =
       out.persp.found && (out.persp.u_px - pr < 0.5f || out.persp.v_px - pr < 0.5f ||
                           out.persp.u_px + pr > static_cast<float>(in.persp.width) - 1.5f ||
                           out.persp.v_px + pr > static_cast<float>(in.persp.height) - 1.5f);
@@ -488,90 +516,100 @@ Status Pipeline::Process(const FrameInput& in, BallState& out) {
     out.flags |= kFlagSeenOmni;
     auto ray = OmniPixelToRayExtended(cal.omni, out.omni.u_px, out.omni.v_px);
     if (ray.ok()) {
-      ray_o = *ray;
-      have_o = true;
+      rays.omni = *ray;
+      rays.have_omni = true;
     }
   }
   // Tracking: a persp region much larger than the predicted ball has merged with a same-coloured
   // object behind it (a red box): its centroid is not the ball's, this frame uses the omni only.
   const bool persp_merged =
-      out.persp.found && !persp_cut && pred_persp_.valid && pred_persp_.radius_px > 0.f &&
+      out.persp.found && !rays.persp_cut && pred_persp_.valid && pred_persp_.radius_px > 0.f &&
       out.persp.radius_px > kMaxApparentSizeRatio * pred_persp_.radius_px + 1.0f;
   if (persp_merged) out.persp = BallDetection{};  // not the ball: not reported as seen
   if (out.persp.found) {
     out.flags |= kFlagSeenPersp;
     auto ray = PerspPixelToRay(cal.persp, out.persp.u_px, out.persp.v_px);
     if (ray.ok()) {
-      ray_p = *ray;
-      have_p = true;
+      rays.persp = *ray;
+      rays.have_persp = true;
     }
   }
+  return rays;
+}
 
-  // 5. What this frame contributes to the filter: every usable ray with its angular noise (the
-  // centroid's, grown with the region: partial classification moves it by a fraction of the
-  // radius), the persp ray with its apparent-size range as a weak cue. The two-ray midpoint (the
-  // paper's eq. 2) and its gap decide whether the two detections are the same ball.
-  BallObservation obs;
-  obs.t_us = in.t_us;
+// The persp ray's angular noise and its apparent-size range, a weak cue.
+void Pipeline::PerspRayNoiseAndRange(const BallDetection& det, const Ray& ray, bool cut,
+                                     BallRay& out) const {
+  const RigCalibration& cal = *calibration_;
+  // A region smaller than the predicted ball is the visible part of a partly hidden ball: its
+  // centroid is off towards that part by up to the missing radius.
+  // A fitted circle has the whole radius; its centre is as good as the arc it spans.
+  const bool circle = det.arc_sectors > 0;
+  const float hidden_px =
+      pred_persp_.valid && !circle ? std::max(0.f, pred_persp_.radius_px - det.radius_px) : 0.f;
+  const float arc_px = circle ? 0.5f + 0.25f * det.radius_px *
+                                           static_cast<float>(kCircleSectors - det.arc_sectors) /
+                                           static_cast<float>(kCircleSectors)
+                              : 0.f;
+  const float s = (config_.persp_sigma_px + config_.persp_sigma_per_radius * det.radius_px +
+                   (cut ? 0.5f * det.radius_px : 0.f) + hidden_px + arc_px) /
+                  std::max(cal.persp.fx, 1.0f);
+  out.sigma_h_rad = out.sigma_v_rad = s;
+  if (det.radius_px > 0.5f && !cut) {
+    auto rim = PerspPixelToRay(cal.persp, det.u_px + det.radius_px, det.v_px);
+    if (rim.ok()) {
+      auto q = PointFromApparentSize(ray, AngleBetween(ray.dir, rim->dir), cal.ball_radius_m);
+      if (q.ok()) {
+        out.range_m = ClosestDepthOnRay(ray, *q);
+        out.range_sigma_m = out.range_m * (config_.size_range_rel + 0.7f / det.radius_px);
+      }
+    }
+  }
+}
+
+// The two-ray midpoint (the paper's eq. 2) and its gap decide whether the two detections are the
+// same ball; false when they are not.
+bool Pipeline::TriangulateSameBall(const CameraRays& rays, BallState& out) {
+  auto tri = TriangulateRays(rays.persp, rays.omni, config_.triangulation);
+  if (tri.ok()) {
+    out.ray_gap_m = tri->gap_m;
+    const float range = (tri->point - rays.persp.origin).norm();
+    if (tri->gap_m <= std::min(config_.max_ray_gap_m, kStereoGapM + kStereoGapPerM * range)) {
+      out.flags |= kFlagTriangulated;
+      meas_.valid = true;
+      meas_.p_m = tri->point;
+    } else {
+      return false;
+    }
+  } else if (tri.status().code() == StatusCode::kOutOfRange) {
+    out.flags |= kFlagRaysParallel;  // both rays still go to the filter: it weighs them
+  }
+  return true;
+}
+
+// Every usable ray with its angular noise (the centroid's, grown with the region: partial
+// classification moves it by a fraction of the radius), the persp ray with its apparent-size
+// range; the measurement for evaluation, from the triangulation or a one-camera fallback.
+void Pipeline::BuildObservation(const CameraRays& rays, BallState& out, BallObservation& obs) {
+  const RigCalibration& cal = *calibration_;
+  const bool have_o = rays.have_omni, have_p = rays.have_persp;
   BallRay omni_ray, persp_ray;
   if (have_o) {
-    omni_ray.origin = ray_o.origin;
-    omni_ray.dir = ray_o.dir;
+    omni_ray.origin = rays.omni.origin;
+    omni_ray.dir = rays.omni.dir;
     omni_ray.camera = 0;
-    OmniRaySigma(cal.omni, out.omni, ray_o, omni_cut ? 0.5f * out.omni.radius_px : 0.f, config_,
-                 omni_ray);
+    OmniRaySigma(cal.omni, out.omni, rays.omni, rays.omni_cut ? 0.5f * out.omni.radius_px : 0.f,
+                 config_, omni_ray);
   }
   if (have_p) {
-    persp_ray.origin = ray_p.origin;
-    persp_ray.dir = ray_p.dir;
+    persp_ray.origin = rays.persp.origin;
+    persp_ray.dir = rays.persp.dir;
     persp_ray.camera = 1;
-    // A region smaller than the predicted ball is the visible part of a partly hidden ball: its
-    // centroid is off towards that part by up to the missing radius.
-    // A fitted circle has the whole radius; its centre is as good as the arc it spans.
-    const bool circle = out.persp.arc_sectors > 0;
-    const float hidden_px = pred_persp_.valid && !circle
-                                ? std::max(0.f, pred_persp_.radius_px - out.persp.radius_px)
-                                : 0.f;
-    const float arc_px =
-        circle ? 0.5f + 0.25f * out.persp.radius_px *
-                            static_cast<float>(kCircleSectors - out.persp.arc_sectors) /
-                            static_cast<float>(kCircleSectors)
-               : 0.f;
-    const float s = (config_.persp_sigma_px + config_.persp_sigma_per_radius * out.persp.radius_px +
-                     (persp_cut ? 0.5f * out.persp.radius_px : 0.f) + hidden_px + arc_px) /
-                    std::max(cal.persp.fx, 1.0f);
-    persp_ray.sigma_h_rad = persp_ray.sigma_v_rad = s;
-    if (out.persp.radius_px > 0.5f && !persp_cut) {
-      auto rim = PerspPixelToRay(cal.persp, out.persp.u_px + out.persp.radius_px, out.persp.v_px);
-      if (rim.ok()) {
-        auto q = PointFromApparentSize(ray_p, AngleBetween(ray_p.dir, rim->dir), r);
-        if (q.ok()) {
-          persp_ray.range_m = ClosestDepthOnRay(ray_p, *q);
-          persp_ray.range_sigma_m =
-              persp_ray.range_m * (config_.size_range_rel + 0.7f / out.persp.radius_px);
-        }
-      }
-    }
+    PerspRayNoiseAndRange(out.persp, rays.persp, rays.persp_cut, persp_ray);
   }
-  bool same_ball = true;
-  if (have_o && have_p) {
-    auto tri = TriangulateRays(ray_p, ray_o, config_.triangulation);
-    if (tri.ok()) {
-      out.ray_gap_m = tri->gap_m;
-      const float range = (tri->point - ray_p.origin).norm();
-      if (tri->gap_m <= std::min(config_.max_ray_gap_m, kStereoGapM + kStereoGapPerM * range)) {
-        out.flags |= kFlagTriangulated;
-        meas_.valid = true;
-        meas_.p_m = tri->point;
-      } else {
-        same_ball = false;
-      }
-    } else if (tri.status().code() == StatusCode::kOutOfRange) {
-      out.flags |= kFlagRaysParallel;  // both rays still go to the filter: it weighs them
-    }
-  }
+  const bool same_ball = !(have_o && have_p) || TriangulateSameBall(rays, out);
   if (have_o) {
-    auto g = IntersectRayWithPlaneZ(ray_o, r);
+    auto g = IntersectRayWithPlaneZ(rays.omni, cal.ball_radius_m);
     if (g.ok()) {
       meas_.omni_ground_valid = true;
       meas_.omni_ground_m = *g;
@@ -596,37 +634,31 @@ Status Pipeline::Process(const FrameInput& in, BallState& out) {
     meas_.valid = true;
     meas_.p_m = persp_ray.origin + persp_ray.dir * persp_ray.range_m;
   }
+}
 
-  // 6. Filter, then the state at the exposure time and the prediction.
-  if (obs.n_rays > 0) {
-    const uint16_t f = filter_.Update(obs);
-    meas_.filter_flags = f;
-    if (f & (kFlagOutlierRejected | kFlagOutOfField | kFlagBadTimestamp)) {
-      ++stats_.rejected_measurements;
-    }
-    out.flags |= f;
+// Only what both cameras agree on is the ball (rays within 2 cm, the filter took the
+// measurement); a rebuilt table's chroma box goes to the finders.
+void Pipeline::AdaptColours(const FrameInput& in, const BallState& out) {
+  if (adapter_ == nullptr || !adapter_->active()) return;
+  const bool confirmed = out.found && out.omni.found && out.persp.found &&
+                         (out.flags & kFlagTriangulated) && out.ray_gap_m <= kAdaptMaxGapM &&
+                         !(meas_.filter_flags & (kFlagOutlierRejected | kFlagOutOfField));
+  if (confirmed) {
+    adapter_->Observe(in.omni, out.omni);
+    adapter_->Observe(in.persp, out.persp);
   }
-  filter_.FillState(in.t_us, config_.predict_ahead_us, out);
-  // 7. Colour adaptation: only what both cameras agree on is the ball (rays within 2 cm, the
-  // filter took the measurement); a rebuilt table's chroma box goes to the finders.
-  if (adapter_ != nullptr && adapter_->active()) {
-    const bool confirmed = out.found && out.omni.found && out.persp.found &&
-                           (out.flags & kFlagTriangulated) && out.ray_gap_m <= kAdaptMaxGapM &&
-                           !(meas_.filter_flags & (kFlagOutlierRejected | kFlagOutOfField));
-    if (confirmed) {
-      adapter_->Observe(in.omni, out.omni);
-      adapter_->Observe(in.persp, out.persp);
-    }
-    const uint32_t rebuilt = adapter_->stats().rebuilds_done;
-    adapter_->Step();
-    if (adapter_->stats().rebuilds_done != rebuilt) {
-      omni_finder_.set_ball_box(adapter_->ball_box());
-      persp_finder_.set_ball_box(adapter_->ball_box());
-    }
+  const uint32_t rebuilt = adapter_->stats().rebuilds_done;
+  adapter_->Step();
+  if (adapter_->stats().rebuilds_done != rebuilt) {
+    omni_finder_.set_ball_box(adapter_->ball_box());
+    persp_finder_.set_ball_box(adapter_->ball_box());
   }
-  // A track that the pose puts outside the field was locked on something else (a spare ball
-  // behind the goal line, a red box): drop it, so the next frame chooses afresh. Unless it was
-  // inside and is rolling out: then it stays tracked, flagged out of the field, while it moves.
+}
+
+// A track that the pose puts outside the field was locked on something else (a spare ball behind
+// the goal line, a red box): drop it, so the next frame chooses afresh. Unless it was inside and
+// is rolling out: then it stays tracked, flagged out of the field, while it moves.
+void Pipeline::CheckTrackInField(bool have_field_pose, BallState& out) {
   if (!out.found) {
     track_seen_in_field_ = false;
   } else if (have_field_pose) {
@@ -641,7 +673,6 @@ Status Pipeline::Process(const FrameInput& in, BallState& out) {
       out.flags |= kFlagOutOfField | kFlagLost;
     }
   }
-  return Status();
 }
 
 }  // namespace bv

@@ -164,6 +164,20 @@ class Pipeline {
   OmniField omni_field_;
   PerspField persp_field_;
   void Predict(uint64_t t_us);
+  // Process()'s stages, in its order.
+  struct CameraRays {  // the detections' rays, and whether the rim or border cut the ball
+    Ray omni, persp;
+    bool have_omni = false, have_persp = false, omni_cut = false, persp_cut = false;
+  };
+  bool LocaliseAndSetFieldRule(const FrameInput& in);  // true: the in-field rule is active
+  void DetectBalls(const FrameInput& in, BallState& out);
+  CameraRays DetectionRays(const FrameInput& in, BallState& out) const;
+  void PerspRayNoiseAndRange(const BallDetection& det, const Ray& ray, bool cut,
+                             BallRay& out) const;
+  bool TriangulateSameBall(const CameraRays& rays, BallState& out);
+  void BuildObservation(const CameraRays& rays, BallState& out, BallObservation& obs);
+  void AdaptColours(const FrameInput& in, const BallState& out);
+  void CheckTrackInField(bool have_field_pose, BallState& out);
   bool OwnPoseTrusted() const;  // the localiser's pose, usable and within usable_sigma_m
   void NameGoals();
   void RefuseOffFieldObstacles();

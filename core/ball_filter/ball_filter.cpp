@@ -200,6 +200,56 @@ void BallFilter::Accel(Motion m, const Eigen::Vector3f& v_ref, float tau, Eigen:
   dv = u * (-d * tau);
 }
 
+namespace {
+
+// One term of the normal equations at the reference state (p0, v0): m and gp of a position at
+// tau seconds from it, p = p0 + v0 tau (+ the motion's own terms).
+inline void AddTerm(float tau, const Eigen::Matrix3f& m, const Eigen::Vector3f& gp, Mat6& h,
+                    Vec6& g) {
+  h.block<3, 3>(0, 0) += m;
+  h.block<3, 3>(0, 3) += tau * m;
+  h.block<3, 3>(3, 0) += tau * m;
+  h.block<3, 3>(3, 3) += tau * tau * m;
+  g.head<3>() += gp;
+  g.tail<3>() += tau * gp;
+}
+
+}  // namespace
+
+// The previous segment's state at the contact, p(tau_c) and v(tau_c) of this segment; the rolling
+// constraints; the damping that keeps an unobserved direction finite.
+void BallFilter::AddPriorAndConstraints(const Segment& seg, const Vec6& x, Mat6& h, Vec6& g) const {
+  const Eigen::Vector3f p0 = x.head<3>(), v0 = x.tail<3>();
+  if (seg.has_prior) {
+    const float tau = Seconds(seg.prior_us, t_ref_us_);
+    Eigen::Vector3f a, adot;
+    Accel(seg.motion, v0, tau, a, adot);
+    Eigen::Matrix3f mp = Eigen::Matrix3f::Zero(), mv = Eigen::Matrix3f::Zero();
+    Eigen::Vector3f rp, rv;
+    for (int j = 0; j < 3; ++j) {
+      mp(j, j) = 1.f / (seg.prior_sigma[j] * seg.prior_sigma[j]);
+      mv(j, j) = 1.f / (seg.prior_sigma[3 + j] * seg.prior_sigma[3 + j]);
+      rp(j) = p0(j) + v0(j) * tau + a(j) - seg.prior_mean[j];
+      rv(j) = v0(j) + adot(j) - seg.prior_mean[3 + j];
+    }
+    AddTerm(tau, mp, mp * rp, h, g);
+    h.block<3, 3>(3, 3) += mv;
+    g.tail<3>() += mv * rv;
+  }
+  if (seg.motion == Motion::kRolling) {
+    h(2, 2) += kConstraintWeight;
+    h(5, 5) += kConstraintWeight;
+    if (seg.at_rest) {
+      h(3, 3) += kConstraintWeight;
+      h(4, 4) += kConstraintWeight;
+    }
+  }
+  for (int j = 0; j < 3; ++j) {
+    h(j, j) += kRegPos;
+    h(3 + j, 3 + j) += kRegVel;
+  }
+}
+
 // Gauss-Newton over the segment's rays (angular residuals), its prior and its constraints, from
 // the nominal state at t_ref_us_; a small damping keeps an unobserved direction where it was.
 BallFilter::Fit BallFilter::Solve(const Segment& seg, const Vec6& nominal, uint64_t end_us,
@@ -221,14 +271,6 @@ BallFilter::Fit BallFilter::Solve(const Segment& seg, const Vec6& nominal, uint6
     Vec6 g = Vec6::Zero();
     rows = 0;
     const Eigen::Vector3f p0 = x.head<3>(), v0 = x.tail<3>();
-    auto add = [&](float tau, const Eigen::Matrix3f& m, const Eigen::Vector3f& gp) {
-      h.block<3, 3>(0, 0) += m;
-      h.block<3, 3>(0, 3) += tau * m;
-      h.block<3, 3>(3, 0) += tau * m;
-      h.block<3, 3>(3, 3) += tau * tau * m;
-      g.head<3>() += gp;
-      g.tail<3>() += tau * gp;
-    };
     for (int i = 0; i < count_; ++i) {
       const Stored& s = Newest(i);
       if (s.t_us < seg.start_us) break;
@@ -250,39 +292,11 @@ BallFilter::Fit BallFilter::Solve(const Segment& seg, const Vec6& nominal, uint6
           m *= kHuberSigma / z;
           gp *= kHuberSigma / z;
         }
-        add(tau, m, gp);
+        AddTerm(tau, m, gp, h, g);
         rows += nr;
       }
     }
-    if (seg.has_prior) {
-      // The previous segment's state at the contact: p(tau_c) and v(tau_c) of this segment.
-      const float tau = Seconds(seg.prior_us, t_ref_us_);
-      Eigen::Vector3f a, adot;
-      Accel(seg.motion, v0, tau, a, adot);
-      Eigen::Matrix3f mp = Eigen::Matrix3f::Zero(), mv = Eigen::Matrix3f::Zero();
-      Eigen::Vector3f rp, rv;
-      for (int j = 0; j < 3; ++j) {
-        mp(j, j) = 1.f / (seg.prior_sigma[j] * seg.prior_sigma[j]);
-        mv(j, j) = 1.f / (seg.prior_sigma[3 + j] * seg.prior_sigma[3 + j]);
-        rp(j) = p0(j) + v0(j) * tau + a(j) - seg.prior_mean[j];
-        rv(j) = v0(j) + adot(j) - seg.prior_mean[3 + j];
-      }
-      add(tau, mp, mp * rp);
-      h.block<3, 3>(3, 3) += mv;
-      g.tail<3>() += mv * rv;
-    }
-    if (seg.motion == Motion::kRolling) {
-      h(2, 2) += kConstraintWeight;
-      h(5, 5) += kConstraintWeight;
-      if (seg.at_rest) {
-        h(3, 3) += kConstraintWeight;
-        h(4, 4) += kConstraintWeight;
-      }
-    }
-    for (int j = 0; j < 3; ++j) {
-      h(j, j) += kRegPos;
-      h(3 + j, 3 + j) += kRegVel;
-    }
+    AddPriorAndConstraints(seg, x, h, g);
     Mat6 l;
     if (!Cholesky6(h, l)) return f;
     const Vec6 step = CholeskySolve(l, g);
@@ -559,10 +573,9 @@ bool BallFilter::TryBounce(uint64_t t_new_us) {
   return true;
 }
 
-uint16_t BallFilter::Update(const BallObservation& in) {
-  if (have_time_ && in.t_us <= last_t_us_) return kFlagBadTimestamp;
-  // Validate the rays: finite, unit, not steeply up, not into the robot's own body.
-  BallObservation obs;
+// The rays worth fitting: finite, unit, not steeply up, not into the robot's own body; a range
+// cue only when it is finite and positive.
+void BallFilter::ValidRays(const BallObservation& in, BallObservation& obs) const {
   obs.t_us = in.t_us;
   const float r = cfg_.ball_radius_m;
   for (int i = 0; i < std::min(in.n_rays, BallObservation::kMaxRays); ++i) {
@@ -585,6 +598,63 @@ uint16_t BallFilter::Update(const BallObservation& in) {
     }
     obs.rays[obs.n_rays++] = ray;
   }
+}
+
+// Each ray against the prediction: the ones within the gate go to `kept`. Returns the largest
+// kept ray's distance from the prediction, in ray sigmas.
+float BallFilter::GateRays(const BallObservation& obs, BallObservation& kept) const {
+  Eigen::Vector3f pp, vp, sp;
+  BallMode mp;
+  StateAt(obs.t_us, pp, vp, mp);
+  SigmaAt(obs.t_us, sp);
+  const float dt = Seconds(obs.t_us, t_ref_us_);
+  kept.t_us = obs.t_us;
+  float off = 0;
+  for (int i = 0; i < obs.n_rays; ++i) {
+    const BallRay& ray = obs.rays[i];
+    const Eigen::Vector3f w = pp - ray.origin;
+    const float along = w.dot(ray.dir);
+    const float dist = along > 0.f ? (w - along * ray.dir).norm() : w.norm();
+    const float ray_sigma = std::max(ray.sigma_h_rad, ray.sigma_v_rad) * std::max(along, 0.f);
+    float gate =
+        cfg_.gate_min_m + cfg_.outlier_growth_mps * dt + cfg_.gate_sigmas * (sp.norm() + ray_sigma);
+    // Range along the rays unknown: only the direction to the prediction can be checked.
+    if (!observable_) gate = std::max(gate, kUnobservableGateRad * w.norm());
+    if (dist <= gate) {
+      kept.rays[kept.n_rays++] = ray;
+      off = std::max(off, dist / (ray_sigma + kSigmaFloorM));
+    }
+  }
+  return off;
+}
+
+// No ray within the gate. A jump: confirmed when the next frame agrees with it, then the track
+// restarts there; otherwise the frame is kept as the candidate for that.
+uint16_t BallFilter::ConfirmJump(const BallObservation& obs, bool have_point,
+                                 const Eigen::Vector3f& point) {
+  Eigen::Vector3f pc;
+  if (cand_valid_ && have_point && PointOf(cand_, pc) &&
+      (pc - point).norm() <
+          cfg_.outlier_error_m * 0.5f + cfg_.outlier_growth_mps * Seconds(obs.t_us, cand_.t_us)) {
+    const BallObservation first = cand_;
+    StartTrack(first);
+    if (tracking_) {
+      Push(obs);
+      t_ref_us_ = obs.t_us;
+      Refit();
+      return UpdateObservable();
+    }
+    return kFlagOutlierRejected;
+  }
+  cand_ = obs;
+  cand_valid_ = have_point;
+  return kFlagOutlierRejected;
+}
+
+uint16_t BallFilter::Update(const BallObservation& in) {
+  if (have_time_ && in.t_us <= last_t_us_) return kFlagBadTimestamp;
+  BallObservation obs;
+  ValidRays(in, obs);
   if (obs.n_rays == 0) return in.n_rays > 0 ? kFlagOutlierRejected : 0;
   Eigen::Vector3f point;
   const bool have_point = PointOf(obs, point);
@@ -603,51 +673,9 @@ uint16_t BallFilter::Update(const BallObservation& in) {
     StartTrack(obs);
     return tracking_ ? UpdateObservable() : static_cast<uint16_t>(kFlagOutlierRejected);
   }
-
-  // Gate: each ray against the prediction.
-  Eigen::Vector3f pp, vp, sp;
-  BallMode mp;
-  StateAt(obs.t_us, pp, vp, mp);
-  SigmaAt(obs.t_us, sp);
-  const float dt = Seconds(obs.t_us, t_ref_us_);
   BallObservation kept;
-  kept.t_us = obs.t_us;
-  float off = 0;  // largest ray distance from the prediction, in ray sigmas
-  for (int i = 0; i < obs.n_rays; ++i) {
-    const BallRay& ray = obs.rays[i];
-    const Eigen::Vector3f w = pp - ray.origin;
-    const float along = w.dot(ray.dir);
-    const float dist = along > 0.f ? (w - along * ray.dir).norm() : w.norm();
-    const float ray_sigma = std::max(ray.sigma_h_rad, ray.sigma_v_rad) * std::max(along, 0.f);
-    float gate =
-        cfg_.gate_min_m + cfg_.outlier_growth_mps * dt + cfg_.gate_sigmas * (sp.norm() + ray_sigma);
-    // Range along the rays unknown: only the direction to the prediction can be checked.
-    if (!observable_) gate = std::max(gate, kUnobservableGateRad * w.norm());
-    if (dist <= gate) {
-      kept.rays[kept.n_rays++] = ray;
-      off = std::max(off, dist / (ray_sigma + kSigmaFloorM));
-    }
-  }
-  if (kept.n_rays == 0) {
-    // A jump: confirmed when the next frame agrees with it, then the track restarts there.
-    Eigen::Vector3f pc;
-    if (cand_valid_ && have_point && PointOf(cand_, pc) &&
-        (pc - point).norm() <
-            cfg_.outlier_error_m * 0.5f + cfg_.outlier_growth_mps * Seconds(obs.t_us, cand_.t_us)) {
-      const BallObservation first = cand_;
-      StartTrack(first);
-      if (tracking_) {
-        Push(obs);
-        t_ref_us_ = obs.t_us;
-        Refit();
-        return UpdateObservable();
-      }
-      return kFlagOutlierRejected;
-    }
-    cand_ = obs;
-    cand_valid_ = have_point;
-    return kFlagOutlierRejected;
-  }
+  const float off = GateRays(obs, kept);
+  if (kept.n_rays == 0) return ConfirmJump(obs, have_point, point);
   cand_valid_ = false;
 
   Push(kept);
@@ -663,112 +691,7 @@ uint16_t BallFilter::Update(const BallObservation& in) {
   }
   t_ref_us_ = obs.t_us;
   Refit();
-
-  // Model checks on the segment's frames.
-  int seg_frames = 0;
-  for (int i = 0; i < count_ && Newest(i).t_us >= seg_.start_us; ++i) ++seg_frames;
-  off_count_ = off > kOffSigma ? off_count_ + 1 : 0;
-  bool switched = false;
-  // Rolling vs flying over the same frames: a ball that left the floor (or a flight that turns
-  // out to hug it). Checked only when the current model fits worse than the ray noise, or when a
-  // flight is near the floor and slow (cheap tests first: each fit is a few hundred rays).
-  const int dof = fit_.rows - (seg_.motion == Motion::kAir ? 6 : 4);
-  const bool poor_fit = fit_.chi2 > kModelCheckChi2PerDof * static_cast<float>(std::max(dof, 1));
-  const bool low_flight = seg_.motion == Motion::kAir && fit_.x(2) < r + cfg_.roll_tolerance_m &&
-                          std::fabs(fit_.x(5)) < cfg_.min_bounce_vz_mps;
-  // One camera's rays of a rising ball can fit the floor model well: checked every frame.
-  const bool one_camera = Newest(0).n == 1;
-  if (seg_frames >= 2 && (seg_.motion == Motion::kRolling ? poor_fit || one_camera : low_flight)) {
-    Segment other = seg_;
-    other.motion = seg_.motion == Motion::kRolling ? Motion::kAir : Motion::kRolling;
-    other.at_rest = false;
-    if (other.motion == Motion::kRolling) {
-      other.has_prior = false;
-      other.bounced = false;
-    }
-    const Fit fo = other.motion == Motion::kAir ? SolveFlight(other) : Solve(other, fit_.x);
-    if (Plausible(fo)) {
-      if (other.motion == Motion::kAir) {
-        if (fo.chi2 + cfg_.model_switch_chi2 < fit_.chi2 && fo.x(2) > r + cfg_.roll_tolerance_m) {
-          seg_ = other;
-          fit_ = fo;
-          switched = true;
-        }
-      } else if (seg_frames >= 4 && fo.chi2 <= fit_.chi2 + 2.f &&
-                 std::fabs(fit_.x(5)) < cfg_.min_bounce_vz_mps &&
-                 fit_.x(2) < r + cfg_.roll_tolerance_m) {
-        seg_ = other;
-        fit_ = fo;
-        b_pending_ = false;
-        switched = true;
-      }
-    }
-  }
-  if (!switched && off_count_ >= 2 && seg_frames > 2) {
-    // Has the motion changed (kick, deflection, an unseen bounce)? A likelihood-ratio test on the
-    // frames since the first that disagreed: a new segment there (continuous in position, free in
-    // velocity; rolling unless flying is clearly better) must explain them much better.
-    Segment cand[2];
-    Fit fits[2];
-    const int n_off = std::min(off_count_, seg_frames - 1);
-    const uint64_t start = Newest(n_off - 1).t_us;
-    // The segment as it is, against the segment cut before `start` plus a new one after it.
-    const Fit before = Solve(seg_, fit_.x, Newest(n_off).t_us);
-    for (int m = 0; m < 2; ++m) {
-      cand[m].motion = m == 0 ? Motion::kRolling : Motion::kAir;
-      cand[m].start_us = start;
-      fits[m] = Solve(cand[m], fit_.x);
-    }
-    // Flying needs a clear gain, and enough rows to be determined at all (6 unknowns + 2).
-    const bool air_ok = Plausible(fits[1]) && fits[1].rows >= 8;
-    const int pick =
-        fits[0].ok && (!air_ok || fits[0].chi2 <= fits[1].chi2 + cfg_.model_switch_chi2) ? 0 : 1;
-    const float chi_old = fit_.chi2, chi_split = before.chi2 + fits[pick].chi2;
-    if (before.ok && Plausible(fits[pick]) && fits[pick].rows >= 6 &&
-        chi_split + cfg_.restart_chi2 < chi_old) {
-      seg_ = cand[pick];
-      fit_ = fits[pick];
-      b_pending_ = false;
-      off_count_ = 0;
-      switched = true;
-    }
-  }
-  if (!switched && seg_.motion == Motion::kRolling && !seg_.at_rest &&
-      std::hypot(fit_.x(3), fit_.x(4)) < kStopCheckSpeedMps) {
-    // Has a slow rolling ball stopped? Over its last frames (>= kRestFrames, >= 0.25 s), a ball at
-    // rest must fit as well as a free rolling one (two parameters fewer).
-    int k = 0;
-    while (k < seg_frames && (k < kRestFrames || Seconds(t_ref_us_, Newest(k).t_us) < 0.25f)) ++k;
-    if (k < seg_frames || k == count_) {
-      Segment rest = seg_, roll = seg_;
-      rest.at_rest = true;
-      rest.has_prior = roll.has_prior = false;
-      rest.start_us = roll.start_us = Newest(k - 1).t_us;
-      const Fit fr = Solve(rest, fit_.x);
-      const Fit fm = Solve(roll, fit_.x);
-      if (fr.ok && fm.ok && fr.chi2 <= fm.chi2 + 6.f) {
-        seg_ = rest;
-        fit_ = fr;
-      }
-    }
-  }
-  // Restitution from a rebound seen long enough: its fitted take-off speed over the speed in.
-  if (b_pending_ && seg_.bounced && seg_frames >= 5 && cfg_.estimate_bounce_factor) {
-    const float since = Seconds(t_ref_us_, seg_.start_us);
-    const float vz_out = fit_.x(5) + cfg_.gravity_mps2 * since;
-    const float b_est = vz_out / seg_.v_in_z;
-    if (b_est > cfg_.min_bounce_factor && b_est < cfg_.max_bounce_factor) {
-      // The first observed rebound replaces the configured value; later ones are averaged in.
-      const float n = static_cast<float>(b_samples_);
-      b_ = (b_ * n + b_est) / (n + 1.f);
-      ++b_samples_;
-      if (seg_.v_in_h > 0.5f) {
-        const float t_est = std::hypot(fit_.x(3), fit_.x(4)) / seg_.v_in_h;
-        if (t_est > 0.3f && t_est <= 1.05f) tangential_ = 0.5f * (tangential_ + t_est);
-      }
-    }
-    b_pending_ = false;
-  }
+  CheckModel(off);
   if (!fit_.x.allFinite() || !fit_.cov.allFinite()) {
     Reset();
     return kFlagOutlierRejected;
@@ -780,6 +703,131 @@ uint16_t BallFilter::Update(const BallObservation& in) {
     if (!SwitchToFlight(cfg_.max_speed_mps)) StartTrack(kept);
   }
   return UpdateObservable();
+}
+
+// Model checks on the segment's frames after the refit; `off` is the new frame's distance from
+// the prediction (ray sigmas).
+void BallFilter::CheckModel(float off) {
+  int seg_frames = 0;
+  for (int i = 0; i < count_ && Newest(i).t_us >= seg_.start_us; ++i) ++seg_frames;
+  off_count_ = off > kOffSigma ? off_count_ + 1 : 0;
+  bool switched = SwitchRollingFlying(seg_frames);
+  if (!switched && off_count_ >= 2 && seg_frames > 2) switched = RestartSegment(seg_frames);
+  if (!switched) CheckAtRest(seg_frames);
+  EstimateRestitution(seg_frames);
+}
+
+// Rolling vs flying over the same frames: a ball that left the floor (or a flight that turns out
+// to hug it). Checked only when the current model fits worse than the ray noise, or when a flight
+// is near the floor and slow (cheap tests first: each fit is a few hundred rays).
+bool BallFilter::SwitchRollingFlying(int seg_frames) {
+  const float r = cfg_.ball_radius_m;
+  const int dof = fit_.rows - (seg_.motion == Motion::kAir ? 6 : 4);
+  const bool poor_fit = fit_.chi2 > kModelCheckChi2PerDof * static_cast<float>(std::max(dof, 1));
+  const bool low_flight = seg_.motion == Motion::kAir && fit_.x(2) < r + cfg_.roll_tolerance_m &&
+                          std::fabs(fit_.x(5)) < cfg_.min_bounce_vz_mps;
+  // One camera's rays of a rising ball can fit the floor model well: checked every frame.
+  const bool one_camera = Newest(0).n == 1;
+  if (seg_frames < 2 || !(seg_.motion == Motion::kRolling ? poor_fit || one_camera : low_flight)) {
+    return false;
+  }
+  Segment other = seg_;
+  other.motion = seg_.motion == Motion::kRolling ? Motion::kAir : Motion::kRolling;
+  other.at_rest = false;
+  if (other.motion == Motion::kRolling) {
+    other.has_prior = false;
+    other.bounced = false;
+  }
+  const Fit fo = other.motion == Motion::kAir ? SolveFlight(other) : Solve(other, fit_.x);
+  if (!Plausible(fo)) return false;
+  if (other.motion == Motion::kAir) {
+    if (fo.chi2 + cfg_.model_switch_chi2 < fit_.chi2 && fo.x(2) > r + cfg_.roll_tolerance_m) {
+      seg_ = other;
+      fit_ = fo;
+      return true;
+    }
+  } else if (seg_frames >= 4 && fo.chi2 <= fit_.chi2 + 2.f &&
+             std::fabs(fit_.x(5)) < cfg_.min_bounce_vz_mps &&
+             fit_.x(2) < r + cfg_.roll_tolerance_m) {
+    seg_ = other;
+    fit_ = fo;
+    b_pending_ = false;
+    return true;
+  }
+  return false;
+}
+
+// Has the motion changed (kick, deflection, an unseen bounce)? A likelihood-ratio test on the
+// frames since the first that disagreed: a new segment there (continuous in position, free in
+// velocity; rolling unless flying is clearly better) must explain them much better.
+bool BallFilter::RestartSegment(int seg_frames) {
+  Segment cand[2];
+  Fit fits[2];
+  const int n_off = std::min(off_count_, seg_frames - 1);
+  const uint64_t start = Newest(n_off - 1).t_us;
+  // The segment as it is, against the segment cut before `start` plus a new one after it.
+  const Fit before = Solve(seg_, fit_.x, Newest(n_off).t_us);
+  for (int m = 0; m < 2; ++m) {
+    cand[m].motion = m == 0 ? Motion::kRolling : Motion::kAir;
+    cand[m].start_us = start;
+    fits[m] = Solve(cand[m], fit_.x);
+  }
+  // Flying needs a clear gain, and enough rows to be determined at all (6 unknowns + 2).
+  const bool air_ok = Plausible(fits[1]) && fits[1].rows >= 8;
+  const int pick =
+      fits[0].ok && (!air_ok || fits[0].chi2 <= fits[1].chi2 + cfg_.model_switch_chi2) ? 0 : 1;
+  const float chi_old = fit_.chi2, chi_split = before.chi2 + fits[pick].chi2;
+  if (!(before.ok && Plausible(fits[pick]) && fits[pick].rows >= 6 &&
+        chi_split + cfg_.restart_chi2 < chi_old)) {
+    return false;
+  }
+  seg_ = cand[pick];
+  fit_ = fits[pick];
+  b_pending_ = false;
+  off_count_ = 0;
+  return true;
+}
+
+// Has a slow rolling ball stopped? Over its last frames (>= kRestFrames, >= 0.25 s), a ball at
+// rest must fit as well as a free rolling one (two parameters fewer).
+void BallFilter::CheckAtRest(int seg_frames) {
+  if (seg_.motion != Motion::kRolling || seg_.at_rest ||
+      !(std::hypot(fit_.x(3), fit_.x(4)) < kStopCheckSpeedMps)) {
+    return;
+  }
+  int k = 0;
+  while (k < seg_frames && (k < kRestFrames || Seconds(t_ref_us_, Newest(k).t_us) < 0.25f)) ++k;
+  if (k < seg_frames || k == count_) {
+    Segment rest = seg_, roll = seg_;
+    rest.at_rest = true;
+    rest.has_prior = roll.has_prior = false;
+    rest.start_us = roll.start_us = Newest(k - 1).t_us;
+    const Fit fr = Solve(rest, fit_.x);
+    const Fit fm = Solve(roll, fit_.x);
+    if (fr.ok && fm.ok && fr.chi2 <= fm.chi2 + 6.f) {
+      seg_ = rest;
+      fit_ = fr;
+    }
+  }
+}
+
+// Restitution from a rebound seen long enough: its fitted take-off speed over the speed in.
+void BallFilter::EstimateRestitution(int seg_frames) {
+  if (!(b_pending_ && seg_.bounced && seg_frames >= 5 && cfg_.estimate_bounce_factor)) return;
+  const float since = Seconds(t_ref_us_, seg_.start_us);
+  const float vz_out = fit_.x(5) + cfg_.gravity_mps2 * since;
+  const float b_est = vz_out / seg_.v_in_z;
+  if (b_est > cfg_.min_bounce_factor && b_est < cfg_.max_bounce_factor) {
+    // The first observed rebound replaces the configured value; later ones are averaged in.
+    const float n = static_cast<float>(b_samples_);
+    b_ = (b_ * n + b_est) / (n + 1.f);
+    ++b_samples_;
+    if (seg_.v_in_h > 0.5f) {
+      const float t_est = std::hypot(fit_.x(3), fit_.x(4)) / seg_.v_in_h;
+      if (t_est > 0.3f && t_est <= 1.05f) tangential_ = 0.5f * (tangential_ + t_est);
+    }
+  }
+  b_pending_ = false;
 }
 
 // Forward in time from the reference state, piecewise closed form: arcs (gravity, drag at the

@@ -136,6 +136,10 @@ class BallFilter {
   // Fits the segment's frames up to end_us (the state at t_ref_us_).
   Fit Solve(const Segment& seg, const Eigen::Matrix<float, 6, 1>& nominal,
             uint64_t end_us = UINT64_MAX, int iterations = 3) const;
+  // Solve's normal equations h, g at state x beyond the rays: the prior, the rolling constraints
+  // and the damping.
+  void AddPriorAndConstraints(const Segment& seg, const Eigen::Matrix<float, 6, 1>& x,
+                              Eigen::Matrix<float, 6, 6>& h, Eigen::Matrix<float, 6, 1>& g) const;
   float ObsChi2(const Stored& s, const Segment& seg, const Eigen::Matrix<float, 6, 1>& x,
                 uint64_t t_ref) const;
   void Accel(Motion m, const Eigen::Vector3f& v_ref, float tau, Eigen::Vector3f& a,
@@ -148,6 +152,15 @@ class BallFilter {
   void StartTrack(const BallObservation& obs);
   bool TryBounce(uint64_t t_new_us);
   void Refit();
+  // Update()'s steps, in its order.
+  void ValidRays(const BallObservation& in, BallObservation& obs) const;
+  float GateRays(const BallObservation& obs, BallObservation& kept) const;
+  uint16_t ConfirmJump(const BallObservation& obs, bool have_point, const Eigen::Vector3f& point);
+  void CheckModel(float off);
+  bool SwitchRollingFlying(int seg_frames);
+  bool RestartSegment(int seg_frames);
+  void CheckAtRest(int seg_frames);
+  void EstimateRestitution(int seg_frames);
   uint16_t UpdateObservable();  // sets observable_; returns kFlagUnobservable or 0
   void Evolve(float dt_s, Eigen::Vector3f& p, Eigen::Vector3f& v, BallMode& mode,
               uint64_t* contacts, float* cx, float* cy, int max_contacts, int& n_contacts) const;

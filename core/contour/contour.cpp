@@ -337,6 +337,144 @@ bool RefineCircle(const uint8_t* codes, uint32_t len, float& ox, float& oy, floa
   r = static_cast<float>(std::sqrt(r2));
   return std::isfinite(ox) && std::isfinite(oy) && std::isfinite(r);
 }
+
+// Evenly spaced outline samples, relative to the start pixel.
+struct OutlineSamples {
+  int16_t x[kCircleSamples], y[kCircleSamples];
+  int n = 0;
+};
+void SampleOutline(const uint8_t* codes, uint32_t len, OutlineSamples& s) {
+  s.n = static_cast<int>(std::min<uint32_t>(len, kCircleSamples));
+  const int n = s.n;
+  int taken = 0;
+  ForEachOutlinePoint(codes, len, [&](uint32_t j, int x, int y) {
+    if (taken < n &&
+        static_cast<uint64_t>(j) * static_cast<uint32_t>(n) >= static_cast<uint64_t>(taken) * len) {
+      s.x[taken] = static_cast<int16_t>(x);
+      s.y[taken] = static_cast<int16_t>(y);
+      ++taken;
+    }
+  });
+}
+
+// Which circles a search allows, relative to the region's start pixel: the radius range of the
+// boundary pixel centres and the centre constraint.
+struct CircleWindow {
+  float c_min, c_max;
+  bool near;
+  float near_u, near_v, near2, reach;
+  bool TooFar(float ox, float oy) const {
+    return near && (ox - near_u) * (ox - near_u) + (oy - near_v) * (oy - near_v) > near2;
+  }
+  // A sample on an allowed circle lies within reach of the predicted centre.
+  bool OutOfReach(int16_t x, int16_t y) const {
+    const float du = static_cast<float>(x) - near_u, dv = static_cast<float>(y) - near_v;
+    return near && du * du + dv * dv > reach * reach;
+  }
+};
+CircleWindow WindowOf(const Region& reg, const CircleSearch& search) {
+  CircleWindow w;
+  // Boundary pixel centres lie half a pixel inside the ball's edge. No circle is wider than the
+  // region is long (a straight edge is an arc of a huge circle).
+  w.c_min = search.r_min_px - 0.5f;
+  w.c_max = std::min(search.r_max_px - 0.5f,
+                     static_cast<float>(std::max(reg.u_max - reg.u_min, reg.v_max - reg.v_min)));
+  w.near = search.max_centre_px > 0.0f;
+  w.near_u = search.cu_px - static_cast<float>(reg.start_u);
+  w.near_v = search.cv_px - static_cast<float>(reg.start_v);
+  w.near2 = search.max_centre_px * search.max_centre_px;
+  // The rest of a long merged outline starts no hypothesis.
+  w.reach = search.max_centre_px + w.c_max + CircleTolerance(w.c_max);
+  return w;
+}
+
+// Spacing of the three samples of a hypothesis: about 70 deg of the expected circle (every
+// start), or a sixth and a third of the outline (16 starts; points a sixth apart still lie on a
+// ball that is a third of a merged outline).
+struct Spacing {
+  int spans[2], steps[2];
+};
+Spacing HypothesisSpacing(const CircleSearch& search, uint32_t len, int n) {
+  Spacing sp;
+  if (search.expected_radius_px > 0.0f) {
+    const float codes_per_sample = static_cast<float>(len) / static_cast<float>(n);
+    sp.spans[0] =
+        std::clamp(static_cast<int>(0.6f * search.expected_radius_px / codes_per_sample + 0.5f), 1,
+                   std::max(1, n / 6));
+    sp.spans[1] = std::min(2 * sp.spans[0], std::max(1, n / 3));
+    sp.steps[0] = 1;
+    sp.steps[1] = 2;
+  } else {
+    sp.spans[0] = std::max(2, n / 12);
+    sp.spans[1] = std::max(3, n / 6);
+    sp.steps[0] = sp.steps[1] = std::max(1, n / 16);
+  }
+  return sp;
+}
+
+// Score: the longest run of consecutive samples on the circle (round the closed outline). An arc
+// is one run; a large circle through scattered outline points collects short ones.
+inline int LongestArc(const OutlineSamples& s, float ox, float oy, const Ring& ring) {
+  const int n = s.n;
+  int run = 0, lead = -1, count = 0;
+  for (int k = 0; k < n; ++k) {
+    const float dx = static_cast<float>(s.x[k]) - ox, dy = static_cast<float>(s.y[k]) - oy;
+    const float z = dx * dx + dy * dy;
+    if (ring.Holds(z)) {
+      count = std::max(count, ++run);
+    } else {
+      if (lead < 0) lead = run;
+      run = 0;
+    }
+  }
+  return lead < 0 ? n : std::max(count, lead + run);  // n: every sample on it
+}
+
+// The best of the circles through three samples the window allows, by LongestArc.
+struct ScoredCircle {
+  int score = 0;
+  float x = 0, y = 0, r = 0;
+};
+ScoredCircle BestThreePointCircle(const OutlineSamples& s, const CircleWindow& w,
+                                  const Spacing& sp) {
+  const int n = s.n;
+  ScoredCircle best;
+  for (int h = 0; h < 2; ++h) {
+    const int span = sp.spans[h];
+    for (int j = 0; j < n; j += sp.steps[h]) {
+      const int b = (j + span) % n, c = (j + 2 * span) % n;
+      if (w.OutOfReach(s.x[j], s.y[j]) || w.OutOfReach(s.x[c], s.y[c])) continue;
+      float ox, oy, r2;
+      if (!Circumcircle(s.x[j], s.y[j], s.x[b], s.y[b], s.x[c], s.y[c], ox, oy, r2)) continue;
+      const float r = std::sqrt(r2);
+      if (r < w.c_min || r > w.c_max || w.TooFar(ox, oy)) continue;
+      const int count = LongestArc(s, ox, oy, RingOf(r));
+      if (count > best.score) {
+        best.score = count;
+        best.x = ox;
+        best.y = oy;
+        best.r = r;
+      }
+    }
+  }
+  return best;
+}
+
+// Support of the circle (bx, by, br): the sectors around the centre that hold outline points on
+// it (mask), and how many points do (on).
+uint32_t SupportSectors(const uint8_t* codes, uint32_t len, float bx, float by, float br,
+                        uint32_t& on) {
+  const Ring ring = RingOf(br);
+  uint32_t mask = 0;
+  on = 0;
+  ForEachOutlinePoint(codes, len, [&](uint32_t, int x, int y) {
+    const float dx = static_cast<float>(x) - bx, dy = static_cast<float>(y) - by;
+    if (!ring.Holds(dx * dx + dy * dy)) return;
+    mask |= 1u << Sector(dx, dy);
+    ++on;
+  });
+  return mask;
+}
 }  // namespace
 
 bool RegionSetBase::FitCircle(size_t i, const CircleSearch& search, CircleFit& out) const {
@@ -346,113 +484,25 @@ bool RegionSetBase::FitCircle(size_t i, const CircleSearch& search, CircleFit& o
   const uint32_t len = reg.chain_length;
   if (reg.hole || len < 12) return false;
   const uint8_t* codes = chain_ + reg.chain_offset;
-  // Evenly spaced outline samples, relative to the start pixel.
-  const int n = static_cast<int>(std::min<uint32_t>(len, kCircleSamples));
-  int16_t sx[kCircleSamples], sy[kCircleSamples];
-  int taken = 0;
-  ForEachOutlinePoint(codes, len, [&](uint32_t j, int x, int y) {
-    if (taken < n &&
-        static_cast<uint64_t>(j) * static_cast<uint32_t>(n) >= static_cast<uint64_t>(taken) * len) {
-      sx[taken] = static_cast<int16_t>(x);
-      sy[taken] = static_cast<int16_t>(y);
-      ++taken;
-    }
-  });
-  // Boundary pixel centres lie half a pixel inside the ball's edge. No circle is wider than the
-  // region is long (a straight edge is an arc of a huge circle).
-  const float c_min = search.r_min_px - 0.5f;
-  const float c_max =
-      std::min(search.r_max_px - 0.5f,
-               static_cast<float>(std::max(reg.u_max - reg.u_min, reg.v_max - reg.v_min)));
-  // The centre constraint, relative to the start pixel.
-  const bool near = search.max_centre_px > 0.0f;
-  const float near_u = search.cu_px - static_cast<float>(reg.start_u);
-  const float near_v = search.cv_px - static_cast<float>(reg.start_v);
-  const float near2 = search.max_centre_px * search.max_centre_px;
-  const auto too_far = [&](float ox, float oy) {
-    return near && (ox - near_u) * (ox - near_u) + (oy - near_v) * (oy - near_v) > near2;
-  };
-  // A sample on an allowed circle lies within max_centre + r_max of the predicted centre: the
-  // rest of a long merged outline starts no hypothesis.
-  const float reach = search.max_centre_px + c_max + CircleTolerance(c_max);
-  const auto out_of_reach = [&](int k) {
-    const float du = static_cast<float>(sx[k]) - near_u, dv = static_cast<float>(sy[k]) - near_v;
-    return near && du * du + dv * dv > reach * reach;
-  };
-  // Circles through three samples, scored by the samples on them. Their spacing: about 70 deg of
-  // the expected circle (every start), or a sixth and a third of the outline (16 starts; points a
-  // sixth apart still lie on a ball that is a third of a merged outline).
-  int spans[2], steps[2];
-  if (search.expected_radius_px > 0.0f) {
-    const float codes_per_sample = static_cast<float>(len) / static_cast<float>(n);
-    spans[0] =
-        std::clamp(static_cast<int>(0.6f * search.expected_radius_px / codes_per_sample + 0.5f), 1,
-                   std::max(1, n / 6));
-    spans[1] = std::min(2 * spans[0], std::max(1, n / 3));
-    steps[0] = 1;
-    steps[1] = 2;
-  } else {
-    spans[0] = std::max(2, n / 12);
-    spans[1] = std::max(3, n / 6);
-    steps[0] = steps[1] = std::max(1, n / 16);
-  }
-  int best = 0;
-  float bx = 0, by = 0, br = 0;
-  for (int h = 0; h < 2; ++h) {
-    const int span = spans[h];
-    for (int j = 0; j < n; j += steps[h]) {
-      const int b = (j + span) % n, c = (j + 2 * span) % n;
-      if (out_of_reach(j) || out_of_reach(c)) continue;
-      float ox, oy, r2;
-      if (!Circumcircle(sx[j], sy[j], sx[b], sy[b], sx[c], sy[c], ox, oy, r2)) continue;
-      const float r = std::sqrt(r2);
-      if (r < c_min || r > c_max || too_far(ox, oy)) continue;
-      const Ring ring = RingOf(r);
-      // Score: the longest run of consecutive samples on the circle (round the closed outline). An
-      // arc is one run; a large circle through scattered outline points collects short ones.
-      int run = 0, lead = -1, count = 0;
-      for (int k = 0; k < n; ++k) {
-        const float dx = static_cast<float>(sx[k]) - ox, dy = static_cast<float>(sy[k]) - oy;
-        const float z = dx * dx + dy * dy;
-        if (ring.Holds(z)) {
-          count = std::max(count, ++run);
-        } else {
-          if (lead < 0) lead = run;
-          run = 0;
-        }
-      }
-      if (lead < 0) {
-        count = n;  // every sample on it
-      } else {
-        count = std::max(count, lead + run);
-      }
-      if (count > best) {
-        best = count;
-        bx = ox;
-        by = oy;
-        br = r;
-      }
-    }
-  }
+  OutlineSamples samples;
+  SampleOutline(codes, len, samples);
+  const int n = samples.n;
+  const CircleWindow window = WindowOf(reg, search);
+  const ScoredCircle best =
+      BestThreePointCircle(samples, window, HypothesisSpacing(search, len, n));
+  float bx = best.x, by = best.y, br = best.r;
   // The best run must be most of the samples an arc of min_sectors would hold (a chain step is
   // ~1.1 px); otherwise no refinement is spent on it.
   const float arc_samples = 6.2832f * br * static_cast<float>(search.min_sectors) /
                             static_cast<float>(kCircleSectors) * static_cast<float>(n) /
                             (1.1f * static_cast<float>(len));
-  if (best < 4 || static_cast<float>(best) < 0.6f * arc_samples) return false;
+  if (best.score < 4 || static_cast<float>(best.score) < 0.6f * arc_samples) return false;
   for (int it = 0; it < 2; ++it) {
     if (!RefineCircle(codes, len, bx, by, br)) return false;
   }
-  if (br < c_min || br > c_max || too_far(bx, by)) return false;
-  // Support: the sectors around the centre that hold outline points on the circle.
-  const Ring ring = RingOf(br);
-  uint32_t mask = 0, on = 0;
-  ForEachOutlinePoint(codes, len, [&](uint32_t, int x, int y) {
-    const float dx = static_cast<float>(x) - bx, dy = static_cast<float>(y) - by;
-    if (!ring.Holds(dx * dx + dy * dy)) return;
-    mask |= 1u << Sector(dx, dy);
-    ++on;
-  });
+  if (br < window.c_min || br > window.c_max || window.TooFar(bx, by)) return false;
+  uint32_t on = 0;
+  const uint32_t mask = SupportSectors(codes, len, bx, by, br, on);
   out.cu_px = static_cast<float>(reg.start_u) + bx;
   out.cv_px = static_cast<float>(reg.start_v) + by;
   out.radius_px = br + 0.5f;

@@ -174,33 +174,10 @@ Status BallFinder::Find(const YuyvImage& image, const ColorLut& lut, const Predi
         StatusCode::kInvalidArgument,
         "BallFinder::Find: frame size differs from the scanline table (or null/short stride)");
   }
-
   // 1. Monte-Carlo attention first, so the predicted ball is traced before clutter can fill the
-  //    region capacity. Normal samples from the sum of four 12-bit uniforms (Irwin-Hall, no libm).
-  uint32_t attention_reads = 0;
-  if (prediction != nullptr && std::isfinite(prediction->u_px) && std::isfinite(prediction->v_px) &&
-      std::isfinite(prediction->sigma_px) && prediction->sigma_px > 0.0f) {
-    constexpr float kInvSigma = 1.0f / 2364.9f;  // sd of the sum of four U[0, 4096)
-    for (int i = 0; i < config_.attention_samples; ++i) {
-      float z[2];
-      for (float& zi : z) {
-        const uint32_t a = NextRandom(), b = NextRandom();
-        const int32_t sum =
-            static_cast<int32_t>((a & 4095) + ((a >> 16) & 4095) + (b & 4095) + ((b >> 16) & 4095));
-        zi = static_cast<float>(sum - 8192) * kInvSigma;
-      }
-      const int u = static_cast<int>(std::lround(prediction->u_px + prediction->sigma_px * z[0]));
-      const int v = static_cast<int>(std::lround(prediction->v_px + prediction->sigma_px * z[1]));
-      if (!image.contains(u, v)) continue;
-      attention_u_[attention_count_] = static_cast<int16_t>(u);
-      attention_v_[attention_count_] = static_cast<int16_t>(v);
-      ++attention_count_;
-      ++attention_reads;
-      if (ClassAt(image, lut, u, v) == ColorClass::kBall) Seed(image, lut, u, v, stats);
-    }
-  }
+  //    region capacity.
+  const uint32_t attention_reads = Attend(image, lut, prediction, stats);
   stats.attention_samples = attention_reads;
-
   // 2. Scanlines, row-major: a seed at the first ball sample of every run along a row. The chroma
   //    box rejects most samples before the table is read.
   const PairChromaTest box(config_.ball_box);
@@ -221,17 +198,61 @@ Status BallFinder::Find(const YuyvImage& image, const ColorLut& lut, const Predi
       });
   stats.scan_pixels = scan_->pixel_count();
   if (config_.fit_circles) FitCircles(prediction);
-
   // 3. Ball choice.
+  const Choice choice = ChooseBall(image, lut, prediction, stats);
+  stats.candidates = choice.candidates;
+  stats.holes = choice.holes;
+  stats.overflows = regions_.overflows();
+  stats.small = regions_.dropped_small();
+  stats.pixels_read += stats.scan_pixels + attention_reads + regions_.pixels_read();
+  if (choice.best < 0) return Status::Ok();
+  chosen_ = choice.best;
+  Report(regions_.regions()[static_cast<size_t>(choice.best)], choice, prediction, out);
+  return Status::Ok();
+}
+
+// Normal samples around the prediction from the sum of four 12-bit uniforms (Irwin-Hall, no
+// libm); a seed at every ball-coloured one. Returns the pixels read.
+uint32_t BallFinder::Attend(const YuyvImage& image, const ColorLut& lut,
+                            const Prediction* prediction, FrontEndStats& stats) {
+  uint32_t attention_reads = 0;
+  if (prediction == nullptr || !std::isfinite(prediction->u_px) ||
+      !std::isfinite(prediction->v_px) || !std::isfinite(prediction->sigma_px) ||
+      !(prediction->sigma_px > 0.0f)) {
+    return attention_reads;
+  }
+  constexpr float kInvSigma = 1.0f / 2364.9f;  // sd of the sum of four U[0, 4096)
+  for (int i = 0; i < config_.attention_samples; ++i) {
+    float z[2];
+    for (float& zi : z) {
+      const uint32_t a = NextRandom(), b = NextRandom();
+      const int32_t sum =
+          static_cast<int32_t>((a & 4095) + ((a >> 16) & 4095) + (b & 4095) + ((b >> 16) & 4095));
+      zi = static_cast<float>(sum - 8192) * kInvSigma;
+    }
+    const int u = static_cast<int>(std::lround(prediction->u_px + prediction->sigma_px * z[0]));
+    const int v = static_cast<int>(std::lround(prediction->v_px + prediction->sigma_px * z[1]));
+    if (!image.contains(u, v)) continue;
+    attention_u_[attention_count_] = static_cast<int16_t>(u);
+    attention_v_[attention_count_] = static_cast<int16_t>(v);
+    ++attention_count_;
+    ++attention_reads;
+    if (ClassAt(image, lut, u, v) == ColorClass::kBall) Seed(image, lut, u, v, stats);
+  }
+  return attention_reads;
+}
+
+// Of the regions that pass: inside the field, then nearest the prediction, else the largest round
+// region with field colour around it (a ball on the carpet; cheap: 16 lookups on a ring).
+BallFinder::Choice BallFinder::ChooseBall(const YuyvImage& image, const ColorLut& lut,
+                                          const Prediction* prediction,
+                                          FrontEndStats& stats) const {
   const auto regions = regions_.regions();
-  int best = -1;
-  float best_key = 0;
-  bool best_in_field = false;
-  uint32_t candidates = 0, holes = 0;
+  Choice choice;
   for (size_t i = 0; i < regions.size(); ++i) {
     const Region& r = regions[i];
     if (r.hole) {
-      ++holes;
+      ++choice.holes;
       continue;
     }
     bool in_field = true;
@@ -239,9 +260,7 @@ Status BallFinder::Find(const YuyvImage& image, const ColorLut& lut, const Predi
       stats.outside_field += !in_field;
       continue;
     }
-    ++candidates;
-    // Prefer: inside the field, then nearest the prediction, else the largest round region
-    // with field colour around it (a ball on the carpet; cheap: 16 lookups on a ring).
+    ++choice.candidates;
     float key;
     if (prediction != nullptr) {
       const float du = r.cu_px - prediction->u_px, dv = r.cv_px - prediction->v_px;
@@ -250,21 +269,20 @@ Status BallFinder::Find(const YuyvImage& image, const ColorLut& lut, const Predi
       key = r.area_px * r.hull_roundness * (0.2f + FieldContext(image, lut, r));
       stats.pixels_read += kContextSamples;
     }
-    if (best < 0 || (in_field && !best_in_field) || (in_field == best_in_field && key > best_key)) {
-      best = static_cast<int>(i);
-      best_key = key;
-      best_in_field = in_field;
+    if (choice.best < 0 || (in_field && !choice.in_field) ||
+        (in_field == choice.in_field && key > choice.key)) {
+      choice.best = static_cast<int>(i);
+      choice.key = key;
+      choice.in_field = in_field;
     }
   }
-  stats.candidates = candidates;
-  stats.holes = holes;
-  stats.overflows = regions_.overflows();
-  stats.small = regions_.dropped_small();
-  stats.pixels_read += stats.scan_pixels + attention_reads + regions_.pixels_read();
-  if (best < 0) return Status::Ok();
+  return choice;
+}
 
-  const Region& r = regions[static_cast<size_t>(best)];
-  chosen_ = best;
+// The chosen region as the detection. Confidence: roundness, discounted when the field test
+// failed or was unavailable, when other candidates compete, and with distance from the prediction.
+void BallFinder::Report(const Region& r, const Choice& choice, const Prediction* prediction,
+                        BallDetection& out) const {
   out.found = true;
   out.arc_sectors = r.arc_sectors;
   out.u_px = r.cu_px;
@@ -272,17 +290,16 @@ Status BallFinder::Find(const YuyvImage& image, const ColorLut& lut, const Predi
   out.area_px = r.area_px;
   out.radius_px = std::sqrt(r.area_px / 3.14159265f);
   out.roundness = r.hull_roundness;
-  // Confidence: roundness, discounted when the field test failed or was unavailable, when other
-  // candidates compete, and with distance from the prediction.
   float conf = r.hull_roundness;
-  if (config_.field != nullptr && !best_in_field) conf *= 0.5f;
-  if (candidates > 1) conf *= 1.0f / (1.0f + 0.25f * static_cast<float>(candidates - 1));
+  if (config_.field != nullptr && !choice.in_field) conf *= 0.5f;
+  if (choice.candidates > 1) {
+    conf *= 1.0f / (1.0f + 0.25f * static_cast<float>(choice.candidates - 1));
+  }
   if (prediction != nullptr && prediction->sigma_px > 0.0f) {
-    const float d2 = -best_key / (9.0f * prediction->sigma_px * prediction->sigma_px);
+    const float d2 = -choice.key / (9.0f * prediction->sigma_px * prediction->sigma_px);
     conf *= 1.0f / (1.0f + d2);
   }
   out.confidence = conf;
-  return Status::Ok();
 }
 
 }  // namespace bv

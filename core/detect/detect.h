@@ -114,6 +114,19 @@ class BallFinder {
   void FitCircles(const Prediction* prediction);
   uint32_t NextRandom();
   void Seed(const YuyvImage& image, const ColorLut& lut, int u, int v, FrontEndStats& stats);
+  // Find()'s steps, in its order.
+  struct Choice {  // the ball choice over the regions
+    int best = -1;
+    float key = 0;  // -(distance to the prediction)^2, else area x roundness x field context
+    bool in_field = false;
+    uint32_t candidates = 0, holes = 0;
+  };
+  uint32_t Attend(const YuyvImage& image, const ColorLut& lut, const Prediction* prediction,
+                  FrontEndStats& stats);
+  Choice ChooseBall(const YuyvImage& image, const ColorLut& lut, const Prediction* prediction,
+                    FrontEndStats& stats) const;
+  void Report(const Region& r, const Choice& choice, const Prediction* prediction,
+              BallDetection& out) const;
 
   const ScanlineTableBase* scan_ = nullptr;
   BallFinderConfig config_;

@@ -139,6 +139,24 @@ void FieldFeatureExtractor::GoalEvidence(int ray, const GoalWalk& g, float cs, f
   }
 }
 
+// The carpet has been off for kGoalTailSamples after last_green (the first such run on the ray):
+// where a goal's back would be, with the line break before it.
+inline void FieldFeatureExtractor::GoalWalk::NoteCarpetEnd(int k, int last_green,
+                                                           float break_r_px) {
+  if (end < 0 && k - last_green == kGoalTailSamples && last_green >= 0) {
+    end = last_green;
+    break_r = break_r_px;
+  }
+}
+
+// The white run [w0, w1] right after the carpet's end is the post's, unless one was noted.
+inline void FieldFeatureExtractor::GoalWalk::NotePost(int w0, int w1) {
+  if (post_w0 < 0 && w0 >= 0 && w0 - end <= 2) {
+    post_w0 = w0;
+    post_w1 = w1;
+  }
+}
+
 // One ray, inside out. A white run counts when green lies on both sides (at most one unclassified
 // sample between, the blend of an edge); the first dark run that starts on green is an obstacle,
 // and nothing beyond it on this ray is trusted (it hides the floor).
@@ -184,10 +202,7 @@ void FieldFeatureExtractor::ScanRay(const YuyvImage& img, const ColorLut& lut, i
       if (k - last_green >= 2 && k - last_green <= 4 && last_green >= 0)
         break_r = Mid(last_green, k);
       if (goal.end >= 0) {
-        if (goal.post_w0 < 0 && tail_w0 >= 0 && tail_w0 - goal.end <= 2) {
-          goal.post_w0 = tail_w0;
-          goal.post_w1 = tail_w1;
-        }
+        goal.NotePost(tail_w0, tail_w1);
         green_run = 1;  // counted on by the fast path above: 8 in a row, the carpet resumed
       }
       white_start = -1;
@@ -197,10 +212,7 @@ void FieldFeatureExtractor::ScanRay(const YuyvImage& img, const ColorLut& lut, i
       dark_count = 0;
       last_green = k;
     } else if (c == ColorClass::kLine) {
-      if (goal.end < 0 && k - last_green == kGoalTailSamples && last_green >= 0) {
-        goal.end = last_green;
-        goal.break_r = break_r;
-      }
+      goal.NoteCarpetEnd(k, last_green, break_r);
       if (white_start < 0) {
         white_start = k;
         green_before_white = last_green;
@@ -214,10 +226,7 @@ void FieldFeatureExtractor::ScanRay(const YuyvImage& img, const ColorLut& lut, i
         tail_w1 = k;
       }
     } else if (c == ColorClass::kObstacle) {
-      if (goal.end < 0 && k - last_green == kGoalTailSamples && last_green >= 0) {
-        goal.end = last_green;
-        goal.break_r = break_r;
-      }
+      goal.NoteCarpetEnd(k, last_green, break_r);
       if (dark_start < 0) {
         dark_start = k;
         // A dark run right behind a line (green, a few white samples, dark): a robot standing
@@ -240,18 +249,12 @@ void FieldFeatureExtractor::ScanRay(const YuyvImage& img, const ColorLut& lut, i
         return;
       }
     } else {
-      if (goal.end < 0 && k - last_green == kGoalTailSamples && last_green >= 0) {
-        goal.end = last_green;
-        goal.break_r = break_r;
-      }
+      goal.NoteCarpetEnd(k, last_green, break_r);
       if (k - last_white > 2 && k - last_green > 2) white_start = -1;  // no line here
       if (tail_w0 >= 0 && k - tail_w1 > 2) tail_closed = true;
     }
   }
-  if (goal.end >= 0 && goal.post_w0 < 0 && tail_w0 >= 0 && tail_w0 - goal.end <= 2) {
-    goal.post_w0 = tail_w0;
-    goal.post_w1 = tail_w1;
-  }
+  if (goal.end >= 0) goal.NotePost(tail_w0, tail_w1);
   GoalEvidence(ray, goal, cs, sn);
   if (line_foot_r >= 0.0f && hits_[ray].goal_cm == 0) SetFoot(ray, line_foot_r, cs, sn);
 }

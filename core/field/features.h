@@ -110,6 +110,8 @@ class FieldFeatureExtractor {
     int end = -1;                    // last carpet sample before the first run off it that lasted
     float break_r = -1;              // image radius of the last short break (a line) before it
     int post_w0 = -1, post_w1 = -1;  // white run right after it
+    void NoteCarpetEnd(int k, int last_green, float break_r_px);
+    void NotePost(int w0, int w1);  // call with end >= 0
   };
   void GoalEvidence(int ray, const GoalWalk& g, float cs, float sn);
   void MergeGoals(FieldFeatures& out);

@@ -204,13 +204,7 @@ struct Band {
 
 float g_feature_radii[OmniFeatureRays::kMaxRadii];  // start-up only
 
-}  // namespace
-
-Status ScanlineTableBase::BuildOmni(const OmniScanConfig& c, int width, int height) {
-  Reset(0, 0);
-  if (width <= 0 || height <= 0 || width > 4096 || height > kMaxRows) {
-    return Status(StatusCode::kInvalidArgument, "BuildOmni: image size out of range");
-  }
+Status CheckOmniConfig(const OmniScanConfig& c, int width, int height) {
   if (!std::isfinite(c.center_u) || !std::isfinite(c.center_v) || c.center_u < 0 ||
       c.center_v < 0 || c.center_u > width - 1 || c.center_v > height - 1) {
     return Status(StatusCode::kInvalidArgument, "BuildOmni: centre outside the image");
@@ -224,111 +218,151 @@ Status ScanlineTableBase::BuildOmni(const OmniScanConfig& c, int width, int heig
     return Status(StatusCode::kInvalidArgument,
                   "BuildOmni: bad diameter profile, struts or margin");
   }
-  const auto gap = [&c](float r) {
-    const float d = c.diameter.count > 0 ? c.diameter.At(r) : 4.0f;
-    return std::max(1.0f, (d * 0.5f - c.margin_px) * kSqrt2);
-  };
-  const float r_in = c.inner_radius_px, r_out = c.outer_radius_px;
+  return Status::Ok();
+}
 
-  // Radial bands of constant (quantised) step along a line.
-  constexpr int kMaxBands = 32;
-  Band bands[kMaxBands];
-  int band_count = 0;
-  {
-    float from = r_in;
-    float step = QuantiseStep(gap(r_in));
-    for (float r = r_in + kRadialResolutionPx; r <= r_out + kRadialResolutionPx;
-         r += kRadialResolutionPx) {
-      const float s = r > r_out ? -1.0f : QuantiseStep(gap(r));
-      if (s == step) continue;
-      if (band_count >= kMaxBands) {
-        return Status(StatusCode::kInvalidArgument,
-                      "BuildOmni: profile needs more than 32 step bands");
-      }
-      bands[band_count++] = Band{from, std::min(r - kRadialResolutionPx, r_out), step};
-      from = r;
-      step = s;
-    }
-  }
+// The omni table's radial lines: their count doubles at each level, a level starting where the
+// previous one's arc spacing gets too wide; along a line the step follows radial bands.
+class OmniLines {
+ public:
+  OmniLines(const OmniScanConfig& c, int width, int height)
+      : c_(c), width_(width), height_(height) {}
 
-  // Lines needed at radius r: 2*pi*r / gap(r). Level 0 serves the inner radius; each further
-  // level doubles the count and starts where the previous level's arc spacing gets too wide.
-  int n0 = 8;
-  while (2 * kPi * r_in / n0 > gap(r_in) && n0 < kMaxRadialLines) n0 *= 2;
-  float level_start[16] = {r_in};
-  int levels = 1;
-  for (float r = r_in; r <= r_out; r += kRadialResolutionPx) {
-    while (2 * kPi * r / (n0 << (levels - 1)) > gap(r)) {
-      if ((n0 << levels) > kMaxRadialLines || levels >= 16) {
-        return Status(StatusCode::kInvalidArgument, "BuildOmni: profile needs > 4096 radial lines");
-      }
-      level_start[levels++] = r;
-    }
+  Status Plan() {
+    const Status st = PlanBands();
+    return st.ok() ? PlanLevels() : st;
   }
-  const int n_lines = n0 << (levels - 1);
 
   // Calls fn(cs, sn, r_start, r_end) for every radial line outside the strut wedges.
-  const auto for_each_line = [&](auto&& fn) {
-    for (int i = 0; i < n_lines; ++i) {
+  template <typename Fn>
+  void ForEachLine(Fn&& fn) const {
+    for (int i = 0; i < n_lines_; ++i) {
       int level = 0;
-      if (i % (n_lines / n0) != 0) {
-        level = levels - 1;
-        for (int k = 1; k < levels; ++k) {
-          if (i % (n_lines / (n0 << k)) == 0) {
+      if (i % (n_lines_ / n0_) != 0) {
+        level = levels_ - 1;
+        for (int k = 1; k < levels_; ++k) {
+          if (i % (n_lines_ / (n0_ << k)) == 0) {
             level = k;
             break;
           }
         }
       }
-      const float angle = 2 * kPi * static_cast<float>(i) / static_cast<float>(n_lines);
+      const float angle = 2 * kPi * static_cast<float>(i) / static_cast<float>(n_lines_);
       const float angle_deg = angle * (180.0f / kPi);
       bool in_strut = false;
-      for (int s = 0; s < c.strut_count; ++s) {
-        in_strut |= AngleDiffDeg(angle_deg, c.struts[s].angle_deg) <= c.struts[s].half_width_deg;
+      for (int s = 0; s < c_.strut_count; ++s) {
+        in_strut |= AngleDiffDeg(angle_deg, c_.struts[s].angle_deg) <= c_.struts[s].half_width_deg;
       }
       if (in_strut) continue;
       const float cs = std::cos(angle), sn = std::sin(angle);
-      float r_end = r_out;  // clipped to the image (pixel centres 0..size-1 after rounding)
-      if (cs > 1e-6f) r_end = std::min(r_end, (width - 0.51f - c.center_u) / cs);
-      if (cs < -1e-6f) r_end = std::min(r_end, (-0.49f - c.center_u) / cs);
-      if (sn > 1e-6f) r_end = std::min(r_end, (height - 0.51f - c.center_v) / sn);
-      if (sn < -1e-6f) r_end = std::min(r_end, (-0.49f - c.center_v) / sn);
-      if (r_end >= level_start[level]) fn(cs, sn, level_start[level], r_end);
+      float r_end = c_.outer_radius_px;  // clipped to the image (pixel centres 0..size-1)
+      if (cs > 1e-6f) r_end = std::min(r_end, (width_ - 0.51f - c_.center_u) / cs);
+      if (cs < -1e-6f) r_end = std::min(r_end, (-0.49f - c_.center_u) / cs);
+      if (sn > 1e-6f) r_end = std::min(r_end, (height_ - 0.51f - c_.center_v) / sn);
+      if (sn < -1e-6f) r_end = std::min(r_end, (-0.49f - c_.center_v) / sn);
+      if (r_end >= level_start_[level]) fn(cs, sn, level_start_[level], r_end);
     }
-  };
+  }
+
   // Samples of one line: r_start, then the band steps; between bands the step shrinks at once.
-  const auto for_each_sample = [&](float r_start, float r_end, auto&& fn) {
+  // fn(r) returns false to stop.
+  template <typename Fn>
+  void ForEachSample(float r_start, float r_end, Fn&& fn) const {
     float last = -1.0f;
-    for (int b = 0; b < band_count; ++b) {
-      if (last < 0 && r_start > bands[b].to) continue;
-      float r = last < 0 ? r_start : last + bands[b].step;
-      const float end = std::min(bands[b].to, r_end);
-      for (; r <= end + 1e-4f; r += bands[b].step) {
+    for (int b = 0; b < band_count_; ++b) {
+      if (last < 0 && r_start > bands_[b].to) continue;
+      float r = last < 0 ? r_start : last + bands_[b].step;
+      const float end = std::min(bands_[b].to, r_end);
+      for (; r <= end + 1e-4f; r += bands_[b].step) {
         last = r;
         if (!fn(r)) return;
       }
       if (last >= r_end) return;
     }
-  };
+  }
 
-  const int n_radii = OmniFeatureRadii(c, g_feature_radii, OmniFeatureRays::kMaxRadii);
-  if (n_radii < 0) {
-    return Status(StatusCode::kInvalidArgument,
-                  "BuildOmni: feature rays not a power of two <= 64 or bad radii/steps");
+ private:
+  static constexpr int kMaxBands = 32;
+  static constexpr int kMaxLevels = 16;
+
+  float Gap(float r) const {
+    const float d = c_.diameter.count > 0 ? c_.diameter.At(r) : 4.0f;
+    return std::max(1.0f, (d * 0.5f - c_.margin_px) * kSqrt2);
   }
-  // Feature-ray samples of row v (the same rounding as core/field's reader).
-  OmniRayQ feature_rays[OmniFeatureRays::kMaxRays];
-  int n_feature_rays = 0;
-  for (int i = 0; i < c.features.rays; ++i) {
-    if (!OmniFeatureRayBlocked(c, i)) feature_rays[n_feature_rays++] = MakeOmniRay(c, i);
+
+  // Radial bands of constant (quantised) step along a line.
+  Status PlanBands() {
+    const float r_in = c_.inner_radius_px, r_out = c_.outer_radius_px;
+    float from = r_in;
+    float step = QuantiseStep(Gap(r_in));
+    for (float r = r_in + kRadialResolutionPx; r <= r_out + kRadialResolutionPx;
+         r += kRadialResolutionPx) {
+      const float s = r > r_out ? -1.0f : QuantiseStep(Gap(r));
+      if (s == step) continue;
+      if (band_count_ >= kMaxBands) {
+        return Status(StatusCode::kInvalidArgument,
+                      "BuildOmni: profile needs more than 32 step bands");
+      }
+      bands_[band_count_++] = Band{from, std::min(r - kRadialResolutionPx, r_out), step};
+      from = r;
+      step = s;
+    }
+    return Status::Ok();
   }
-  const auto add_feature_samples = [&](int v, uint16_t* row, int room, int& n, bool& overflow) {
-    for (int i = 0; i < n_feature_rays && !overflow; ++i) {
-      const OmniRayQ& q = feature_rays[i];
-      for (int k = 0; k < n_radii; ++k) {
+
+  // Lines needed at radius r: 2*pi*r / gap(r). Level 0 serves the inner radius; each further
+  // level doubles the count and starts where the previous level's arc spacing gets too wide.
+  Status PlanLevels() {
+    const float r_in = c_.inner_radius_px, r_out = c_.outer_radius_px;
+    n0_ = 8;
+    while (2 * kPi * r_in / n0_ > Gap(r_in) && n0_ < kMaxRadialLines) n0_ *= 2;
+    level_start_[0] = r_in;
+    levels_ = 1;
+    for (float r = r_in; r <= r_out; r += kRadialResolutionPx) {
+      while (2 * kPi * r / (n0_ << (levels_ - 1)) > Gap(r)) {
+        if ((n0_ << levels_) > kMaxRadialLines || levels_ >= kMaxLevels) {
+          return Status(StatusCode::kInvalidArgument,
+                        "BuildOmni: profile needs > 4096 radial lines");
+        }
+        level_start_[levels_++] = r;
+      }
+    }
+    n_lines_ = n0_ << (levels_ - 1);
+    return Status::Ok();
+  }
+
+  const OmniScanConfig& c_;
+  int width_, height_;
+  Band bands_[kMaxBands] = {};
+  int band_count_ = 0;
+  int n0_ = 8, levels_ = 1, n_lines_ = 0;
+  float level_start_[kMaxLevels] = {};
+};
+
+// The feature rays' samples (the same rounding as core/field's reader), row by row.
+class FeatureRaySamples {
+ public:
+  Status Init(const OmniScanConfig& c, int width) {
+    width_ = width;
+    n_radii_ = OmniFeatureRadii(c, g_feature_radii, OmniFeatureRays::kMaxRadii);
+    if (n_radii_ < 0) {
+      return Status(StatusCode::kInvalidArgument,
+                    "BuildOmni: feature rays not a power of two <= 64 or bad radii/steps");
+    }
+    for (int i = 0; i < c.features.rays; ++i) {
+      if (!OmniFeatureRayBlocked(c, i)) rays_[n_rays_++] = MakeOmniRay(c, i);
+    }
+    return Status::Ok();
+  }
+
+  // Appends row v's samples to row[n..room); overflow when they do not fit.
+  void AddRow(int v, uint16_t* row, int room, int& n, bool& overflow) const {
+    for (int i = 0; i < n_rays_ && !overflow; ++i) {
+      const OmniRayQ& q = rays_[i];
+      for (int k = 0; k < n_radii_; ++k) {
         int su, sv;
         OmniRayPixel(q, RadiusQ4(g_feature_radii[k]), su, sv);
-        if (sv != v || su < 0 || su >= width) continue;
+        if (sv != v || su < 0 || su >= width_) continue;
         if (n >= room) {
           overflow = true;
           return;
@@ -336,7 +370,25 @@ Status ScanlineTableBase::BuildOmni(const OmniScanConfig& c, int width, int heig
         row[n++] = static_cast<uint16_t>(su);
       }
     }
-  };
+  }
+
+ private:
+  OmniRayQ rays_[OmniFeatureRays::kMaxRays] = {};
+  int n_rays_ = 0, n_radii_ = 0, width_ = 0;
+};
+
+}  // namespace
+
+Status ScanlineTableBase::BuildOmni(const OmniScanConfig& c, int width, int height) {
+  Reset(0, 0);
+  if (width <= 0 || height <= 0 || width > 4096 || height > kMaxRows) {
+    return Status(StatusCode::kInvalidArgument, "BuildOmni: image size out of range");
+  }
+  BV_TRY(CheckOmniConfig(c, width, height));
+  OmniLines lines(c, width, height);
+  BV_TRY(lines.Plan());
+  FeatureRaySamples features;
+  BV_TRY(features.Init(c, width));
 
   width_ = width;
   height_ = height;
@@ -344,11 +396,11 @@ Status ScanlineTableBase::BuildOmni(const OmniScanConfig& c, int width, int heig
     int n = 0, room = 0;
     bool overflow = false;
     uint16_t* const row = RowBuffer(room);
-    add_feature_samples(v, row, room, n, overflow);
-    for_each_line([&](float cs, float sn, float r_start, float r_end) {
+    features.AddRow(v, row, room, n, overflow);
+    lines.ForEachLine([&](float cs, float sn, float r_start, float r_end) {
       const float va = c.center_v + r_start * sn, vb = c.center_v + r_end * sn;
       if (v < std::min(va, vb) - 1.0f || v > std::max(va, vb) + 1.0f) return;
-      for_each_sample(r_start, r_end, [&](float r) {
+      lines.ForEachSample(r_start, r_end, [&](float r) {
         const int sv = static_cast<int>(std::floor(c.center_v + 0.5f + r * sn));
         if (sv == v) {
           if (n >= room) {
