@@ -10,7 +10,7 @@ set -u
 qemu=$1 elf=$2 bv=$3 src=$4 work=$5 first=$6 count=$7 calib=$8 lut=$9 py=${10}
 here=$(cd "$(dirname "$0")" && pwd)
 fail() { echo "FAIL: $*"; exit 1; }
-. "$here/qemu_piped.sh"
+. "$here/qemu_link.sh"
 for f in "$src/frames.csv" "$calib" "$lut"; do
   [ -f "$f" ] || { echo "SKIP: $f not found"; exit 77; }
 done

@@ -7,7 +7,7 @@ set -u
 qemu=$1 elf=$2 bv=$3 src=$4 work=$5 py=$6
 here=$(cd "$(dirname "$0")" && pwd)
 fail() { echo "FAIL: $*"; exit 1; }
-. "$here/qemu_piped.sh"
+. "$here/qemu_link.sh"
 if [ ! -f "$src/frames.csv" ]; then echo "SKIP: $src not found"; exit 77; fi
 [ -x "$bv" ] || fail "host tool $bv not built: build the host preset first"
 rm -rf "$work" && mkdir -p "$work"

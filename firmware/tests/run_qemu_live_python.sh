@@ -7,15 +7,11 @@
 set -u
 qemu=$1 elf=$2 bv=$3 src=$4 work=$5 count=$6 pydir=$7
 fail() { echo "FAIL: $*"; exit 1; }
+. "$(cd "$(dirname "$0")" && pwd)/qemu_link.sh"
 [ -f "$src/frames.csv" ] || { echo "SKIP: $src not found"; exit 77; }
 rm -rf "$work" && mkdir -p "$work"
 "$bv" seq to-raw "$src" "$work/seq" --count "$count" > /dev/null || fail "seq to-raw failed"
-port=$(/usr/bin/python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1])')
-timeout 60 "$qemu" -machine mps2-an500 -display none -monitor none -icount shift=0 \
-  -chardev "socket,id=u0,host=127.0.0.1,port=$port,server=on,wait=on" -serial chardev:u0 \
-  -semihosting-config "enable=on,target=native,arg=seq=$work/seq" \
-  -kernel "$elf" < /dev/null > "$work/qemu.out" 2> "$work/qemu.err" &
-qpid=$!
+qemu_socket "$qemu" "$elf" "$work" 60 "arg=seq=$work/seq" -icount shift=0
 PYTHONPATH="$pydir" timeout 60 /usr/bin/python3 -m ballvision_link "tcp:127.0.0.1:$port" \
   --csv "$work/live.csv" > "$work/python.out" 2>&1
 prc=$?

@@ -5,22 +5,19 @@
 #   run_qemu_readback.sh QEMU ELF BALLVISION SRC_SEQ WORK_DIR LUT
 set -u
 qemu=$1 elf=$2 bv=$3 src=$4 work=$5 lut=$6
+here=$(cd "$(dirname "$0")" && pwd)
 fail() { echo "FAIL: $*"; exit 1; }
+. "$here/qemu_link.sh"
 for f in "$src/frames.csv" "$lut"; do
   [ -f "$f" ] || { echo "SKIP: $f not found"; exit 77; }
 done
 [ -x "$bv" ] || fail "host tool $bv not built: build the host preset first"
 rm -rf "$work" && mkdir -p "$work"
 "$bv" seq to-raw "$src" "$work/seq" --count 10 > /dev/null || fail "seq to-raw failed"
-port=$(/usr/bin/python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1])')
+chunks=$(( ($(stat -c %s "$lut") + 511) / 512 ))
 # rx_bytes: the replay is held open until every read (one per 512 bytes, 23 bytes each on the
 # wire) arrived; each is answered in the iteration that reads it, before the last pairs play.
-chunks=$(( ($(stat -c %s "$lut") + 511) / 512 ))
-timeout 60 "$qemu" -machine mps2-an500 -display none -monitor none \
-  -chardev "socket,id=u0,host=127.0.0.1,port=$port,server=on,wait=on" -serial chardev:u0 \
-  -semihosting-config "enable=on,target=native,arg=seq=$work/seq,arg=lut=$lut,arg=rx_bytes=$(( chunks * 23 ))" \
-  -kernel "$elf" < /dev/null > "$work/qemu.out" 2> "$work/qemu.err" &
-qpid=$!
+qemu_socket "$qemu" "$elf" "$work" 60 "arg=seq=$work/seq,arg=lut=$lut,arg=rx_bytes=$(( chunks * 23 ))"
 timeout 60 "$bv" readback "tcp:127.0.0.1:$port" --out "$work/table.lut" --seconds 30 \
   > "$work/readback.out" 2>&1
 rrc=$?

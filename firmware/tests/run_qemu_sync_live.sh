@@ -8,16 +8,12 @@
 set -u
 qemu=$1 elf=$2 bv=$3 src=$4 work=$5 pydir=$6 tool=${7:-python}
 fail() { echo "FAIL: $*"; exit 1; }
+. "$(cd "$(dirname "$0")" && pwd)/qemu_link.sh"
 [ -f "$src/frames.csv" ] || { echo "SKIP: $src not found"; exit 77; }
 rm -rf "$work" && mkdir -p "$work"
 "$bv" seq to-raw "$src" "$work/seq" --count 3 > /dev/null || fail "seq to-raw failed"
-port=$(/usr/bin/python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1])')
 # rx_bytes: the replay is held open until ~60 requests (each >= 25 bytes on the wire) arrived.
-timeout 60 "$qemu" -machine mps2-an500 -display none -monitor none \
-  -chardev "socket,id=u0,host=127.0.0.1,port=$port,server=on,wait=on" -serial chardev:u0 \
-  -semihosting-config "enable=on,target=native,arg=seq=$work/seq,arg=rx_bytes=1500" \
-  -kernel "$elf" < /dev/null > "$work/qemu.out" 2> "$work/qemu.err" &
-qpid=$!
+qemu_socket "$qemu" "$elf" "$work" 60 "arg=seq=$work/seq,arg=rx_bytes=1500"
 if [ "$tool" = cpp ]; then
   timeout 60 "$bv" sync "tcp:127.0.0.1:$port" --hz 20 --seconds 30 > "$work/sync.out" 2>&1
 else

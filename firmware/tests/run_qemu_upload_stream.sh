@@ -13,6 +13,7 @@ set -u
 qemu=$1 elf=$2 bv=$3 src=$4 work=$5 calib=$6 lut=$7 min_frames=$8 repeat=$9
 here=$(cd "$(dirname "$0")" && pwd)
 fail() { echo "FAIL: $*"; exit 1; }
+. "$here/qemu_link.sh"
 [ -f "$src/frames.csv" ] || { echo "SKIP: $src not found"; exit 77; }
 [ -x "$bv" ] || fail "host tool $bv not built: build the host preset first"
 [ -f "$calib" ] && [ -f "$lut" ] || fail "calibration $calib or LUT $lut missing"
@@ -27,13 +28,9 @@ awk -F, -v OFS=, -v r="$repeat" 'NR == 1 { print; next } { row[++n] = $0 }
 "$bv" calib to-blob "$calib" "$work/calib.bin" > /dev/null || fail "calib to-blob failed"
 bytes=$(/usr/bin/python3 "$here/upload_stream.py" --bytes calibration "$work/calib.bin") ||
   fail "upload size"
-port=$(/usr/bin/python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1])')
 # rx_bytes: the replay ends only after the loop has read the whole upload.
-timeout 120 "$qemu" -machine mps2-an500 -display none -monitor none -icount shift=0 \
-  -chardev "socket,id=u0,host=127.0.0.1,port=$port,server=on,wait=on" -serial chardev:u0 \
-  -semihosting-config "enable=on,target=native,arg=seq=$work/seq,arg=cal=$work/calib.bin,arg=lut=$lut,arg=rx_bytes=$bytes" \
-  -kernel "$elf" < /dev/null > "$work/qemu.out" 2> "$work/qemu.err" &
-qpid=$!
+qemu_socket "$qemu" "$elf" "$work" 120 \
+  "arg=seq=$work/seq,arg=cal=$work/calib.bin,arg=lut=$lut,arg=rx_bytes=$bytes" -icount shift=0
 timeout 120 /usr/bin/python3 "$here/upload_stream.py" "$port" calibration "$work/calib.bin" \
   "$min_frames" \
   > "$work/upload.out" 2>&1

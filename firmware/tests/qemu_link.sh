@@ -1,4 +1,5 @@
 # Sourced by the run_qemu_*.sh scripts that talk to the board's UART0 receive side.
+#
 #   qemu_piped QEMU ELF WORK OUT IN SEMIHOSTING_ARGS
 # runs the emulated board with UART0 on a pipe chardev (FIFOs WORK/uart.in, WORK/uart.out): the
 # bytes of IN reach its receive side, what it sends lands in OUT. rx_bytes holds the replay open
@@ -18,4 +19,19 @@ qemu_piped() {
   kill "$writer" 2> /dev/null
   wait "$reader"
   [ $rc -eq 0 ] || { cat "$work/qemu.err"; fail "QEMU exited with $rc"; }
+}
+
+#   qemu_socket QEMU ELF WORK SECONDS SEMIHOSTING_ARGS [QEMU_FLAGS...]
+# starts the emulated board in the background (at most SECONDS) with UART0 on a TCP socket on a
+# free port of 127.0.0.1; the guest starts once a client connects. Sets $port and $qpid (wait for
+# it); QEMU's output is WORK/qemu.out and WORK/qemu.err.
+qemu_socket() {
+  local qemu=$1 elf=$2 work=$3 seconds=$4 args=$5
+  shift 5
+  port=$(/usr/bin/python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1])')
+  timeout "$seconds" "$qemu" -machine mps2-an500 -display none -monitor none "$@" \
+    -chardev "socket,id=u0,host=127.0.0.1,port=$port,server=on,wait=on" -serial chardev:u0 \
+    -semihosting-config "enable=on,target=native,$args" \
+    -kernel "$elf" < /dev/null > "$work/qemu.out" 2> "$work/qemu.err" &
+  qpid=$!
 }
