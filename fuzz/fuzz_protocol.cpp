@@ -4,6 +4,7 @@
 #include <vector>
 
 #include "core/protocol/commands.h"
+#include "core/protocol/link.h"
 #include "core/protocol/protocol.h"
 
 namespace {
@@ -32,13 +33,32 @@ class NullParams : public bv::protocol::ParamSink {
   bv::Status SetParam(uint16_t, float) override { return {}; }
 };
 
+// Serves a 2000-byte blob; the handler must keep every answer inside it.
+class RamReadback : public bv::protocol::ReadbackSink {
+ public:
+  uint8_t blob[2000] = {};
+  bool snapshot = false;
+  bv::Status ReadBlob(bv::protocol::UploadTarget, uint32_t offset, size_t max_len,
+                      bv::protocol::BlobData& out) override {
+    if (max_len == 0 || max_len > bv::protocol::kBlobDataBytes) __builtin_trap();
+    if (offset == 0) snapshot = true;
+    if (!snapshot) return bv::Status(bv::StatusCode::kFailedPrecondition, "no snapshot");
+    out.total_len = sizeof blob;
+    if (offset >= sizeof blob) return bv::Status(bv::StatusCode::kOutOfRange, "end");
+    const size_t n = max_len < sizeof blob - offset ? max_len : sizeof blob - offset;
+    out.data = std::span<const uint8_t>(blob + offset, n);
+    return {};
+  }
+};
+
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   static bv::protocol::Decoder decoder;  // keeps state across inputs, like a long-lived link
   NullSink sink;
   NullParams params;
-  bv::protocol::CommandHandler handler(sink, params);
+  RamReadback readback;
+  bv::protocol::CommandHandler handler(sink, params, nullptr, nullptr, nullptr, &readback);
   bv::protocol::FrameView frame;
   uint8_t reply[bv::protocol::kMaxWireFrameBytes];
   for (size_t i = 0; i < size; ++i) {
@@ -53,8 +73,14 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     (void)bv::protocol::ParsePose(frame.payload, pose).ok();
     (void)bv::protocol::ParseLinePoints(frame.payload, lines).ok();
     (void)bv::protocol::ParseObstacles(frame.payload, obstacles).ok();
+    bv::protocol::BlobData blob;
+    if (bv::protocol::ParseBlobData(frame.payload, blob).ok() &&
+        blob.offset + blob.data.size() > blob.total_len) {
+      __builtin_trap();  // the parser must keep the bytes inside the announced blob
+    }
     size_t reply_len = 0;
     handler.Handle(frame, 0, reply, reply_len);
+    if (reply_len > sizeof reply) __builtin_trap();
   }
   // COBS primitives directly on the raw input.
   uint8_t out[4096];
