@@ -122,6 +122,32 @@ TEST(LinkMessages, BlobDataRoundTripAndBounds) {
   EXPECT_FALSE(protocol::ParseReadBlob(rf.payload.first(6), req).ok());
 }
 
+TEST(LinkMessages, CommandRepliesParseAsEncoded) {
+  std::array<uint8_t, protocol::kMaxWireFrameBytes> wire{};
+  protocol::CommandReply r;
+  const Result<size_t> e = protocol::EncodeCommandReply(MsgType::kReadBlob, 77,
+                                                        CommandError::kBadOffset, 65556, 3, wire);
+  ASSERT_TRUE(e.ok());
+  protocol::Decoder d;
+  ASSERT_TRUE(protocol::ParseCommandReply(DecodeOne({wire.data(), *e}, d), r).ok());
+  EXPECT_EQ(r.cmd_type, MsgType::kReadBlob);
+  EXPECT_EQ(r.cmd_seq, 77u);
+  EXPECT_EQ(r.error, CommandError::kBadOffset);
+  EXPECT_EQ(r.detail, 65556u);
+  const Result<size_t> a =
+      protocol::EncodeCommandReply(MsgType::kCaptureStart, 5, CommandError::kNone, 0, 4, wire);
+  ASSERT_TRUE(a.ok());
+  protocol::Decoder d2;
+  ASSERT_TRUE(protocol::ParseCommandReply(DecodeOne({wire.data(), *a}, d2), r).ok());
+  EXPECT_EQ(r.cmd_type, MsgType::kCaptureStart);
+  EXPECT_EQ(r.error, CommandError::kNone);
+  protocol::FrameView other;  // another type, or a reply of the wrong length
+  other.type = MsgType::kBallState;
+  EXPECT_FALSE(protocol::ParseCommandReply(other, r).ok());
+  other.type = MsgType::kError;
+  EXPECT_FALSE(protocol::ParseCommandReply(other, r).ok());
+}
+
 TEST(LinkMessages, CaptureChunkBounds) {
   uint8_t data[protocol::kCaptureChunkBytes + 1] = {};
   protocol::CaptureChunk c;

@@ -53,6 +53,22 @@ Result<size_t> EncodeCommandReply(MsgType cmd_type, uint32_t cmd_seq, CommandErr
                      w.written(), out);
 }
 
+Status ParseCommandReply(const FrameView& frame, CommandReply& out) {
+  const bool ack = frame.type == MsgType::kAck && frame.payload.size() == 5;
+  const bool error = frame.type == MsgType::kError && frame.payload.size() == 10;
+  if (!ack && !error) return Status(StatusCode::kInvalidArgument, "not a command reply");
+  ByteReader r(frame.payload);
+  CommandReply reply;
+  reply.cmd_type = static_cast<MsgType>(r.U8());
+  reply.cmd_seq = r.U32();
+  if (error) {
+    reply.error = static_cast<CommandError>(r.U8());
+    reply.detail = r.U32();
+  }
+  out = reply;
+  return Status();
+}
+
 // Checked here: finite numbers, a floor point within 20 m, a pixel within 0..4095; not while an
 // upload is open (the device teaches in the upload buffer).
 CommandError CommandHandler::TeachCommand(std::span<const uint8_t> p, uint32_t cmd_seq,

@@ -128,6 +128,16 @@ class ReadbackSink {
 Result<size_t> EncodeCommandReply(MsgType cmd_type, uint32_t cmd_seq, CommandError error,
                                   uint32_t detail, uint32_t reply_seq, std::span<uint8_t> out);
 
+/// An ack or error reply as the main computer reads it.
+struct CommandReply {
+  MsgType cmd_type{};
+  uint32_t cmd_seq = 0;
+  CommandError error = CommandError::kNone;  // kNone for an ack
+  uint32_t detail = 0;
+};
+/// kInvalidArgument: not an ack (5 bytes) or an error (10 bytes) frame.
+Status ParseCommandReply(const FrameView& frame, CommandReply& out);
+
 // Ranges the handler accepts (the Pipeline and the pose parameters use the same limits).
 inline constexpr float kMaxOdometryStepM = 2.0f;
 inline constexpr float kMaxOdometryStepRad = 3.2f;

@@ -2,7 +2,6 @@
 
 #include "core/calibration/calibration.h"
 #include "core/color_lut/color_lut.h"
-#include "core/common/bytes.h"
 #include "core/common/crc32.h"
 
 namespace bv::cli {
@@ -45,13 +44,13 @@ void BlobReader::Finish() {
 
 void BlobReader::OnFrame(const protocol::FrameView& frame) {
   if (!waiting_ || done_ || failed()) return;
-  if (frame.type == protocol::MsgType::kError) {
-    if (frame.payload.size() != 10) return;
-    ByteReader r(frame.payload);
-    const auto type = static_cast<protocol::MsgType>(r.U8());
-    const uint32_t seq = r.U32();
-    const auto code = static_cast<protocol::CommandError>(r.U8());
-    if (type != protocol::MsgType::kReadBlob || seq != outstanding_seq_) return;
+  protocol::CommandReply reply;
+  if (protocol::ParseCommandReply(frame, reply).ok()) {
+    if (reply.cmd_type != protocol::MsgType::kReadBlob || reply.cmd_seq != outstanding_seq_ ||
+        reply.error == protocol::CommandError::kNone) {
+      return;
+    }
+    const protocol::CommandError code = reply.error;
     waiting_ = false;
     if (code == protocol::CommandError::kBusy) {
       ++busy_;  // asked again by the next NextRequest()

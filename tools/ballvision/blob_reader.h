@@ -32,6 +32,8 @@ class BlobReader {
   /// The whole blob, once done().
   const std::vector<uint8_t>& blob() const { return blob_; }
   uint32_t total_len() const { return total_; }
+  /// The snapshot's CRC-32 the device announced (the blob's own, once done()).
+  uint32_t blob_crc32() const { return crc_; }
   int busy_answers() const { return busy_; }
   int restarts() const { return restarts_; }
 

@@ -15,6 +15,7 @@
 #include <cstring>
 #include <string>
 
+#include "core/protocol/commands.h"
 #include "core/protocol/link.h"
 #include "core/protocol/protocol.h"
 #include "tools/ballvision/capture_collector.h"
@@ -192,13 +193,14 @@ double DefaultSeconds(const CaptureArgs& a) {
 
 // An error packet answering a capture request: its request's seq and why.
 bool ParseRefusal(const protocol::FrameView& frame, uint32_t& cmd_seq, std::string& why) {
-  if (frame.type != protocol::MsgType::kError || frame.payload.size() != 10 ||
-      frame.payload[0] != static_cast<uint8_t>(protocol::MsgType::kCaptureStart)) {
+  protocol::CommandReply reply;
+  if (!protocol::ParseCommandReply(frame, reply).ok() ||
+      reply.error == protocol::CommandError::kNone ||
+      reply.cmd_type != protocol::MsgType::kCaptureStart) {
     return false;
   }
-  const uint8_t code = frame.payload[5];
-  cmd_seq = frame.payload[1] | (frame.payload[2] << 8) | (frame.payload[3] << 16) |
-            (uint32_t{frame.payload[4]} << 24);
+  const auto code = static_cast<uint8_t>(reply.error);
+  cmd_seq = reply.cmd_seq;
   why = code < 15 ? kRefusalWhy[code] : "error";
   return true;
 }

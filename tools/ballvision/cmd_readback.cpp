@@ -9,7 +9,6 @@
 #include <cstring>
 #include <string>
 
-#include "core/common/crc32.h"
 #include "tools/ballvision/blob_reader.h"
 #include "tools/ballvision/cli_args.h"
 #include "tools/ballvision/commands.h"
@@ -138,7 +137,7 @@ int CmdReadback(int argc, char** argv) {
   std::printf(
       "read %zu bytes of the %s in use (crc32 %08x) in %.1f s, %d busy answers, %d "
       "restarts: wrote %s\n",
-      reader.blob().size(), a.what == "lut" ? "colour table" : "calibration", Crc32(reader.blob()),
+      reader.blob().size(), a.what == "lut" ? "colour table" : "calibration", reader.blob_crc32(),
       (NowUs() - start) * 1e-6, reader.busy_answers(), reader.restarts(), a.out.c_str());
   return 0;
 }
