@@ -11,10 +11,10 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <iterator>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "tools/ballvision/calib_io.h"
 #include "tools/ballvision/safe_write.h"
 
 extern char** environ;
@@ -111,12 +111,6 @@ int RunRenderer(const PlotRenderer& r, const fs::path& spec, const fs::path& out
   return WEXITSTATUS(status);
 }
 
-bool ReadBytes(const fs::path& file, std::vector<unsigned char>& out) {
-  std::ifstream in(file, std::ios::binary);
-  out.assign(std::istreambuf_iterator<char>(in), {});
-  return in.good() || in.eof();
-}
-
 PlotOutcome WriteTables(const std::vector<Plot>& plots, std::string note) {
   PlotOutcome out;
   for (const auto& p : plots) {
@@ -132,9 +126,9 @@ PlotOutcome WriteTables(const std::vector<Plot>& plots, std::string note) {
 PlotOutcome MovePngs(const std::vector<Plot>& plots, const fs::path& dir) {
   PlotOutcome out;
   for (size_t i = 0; i < plots.size(); ++i) {
-    std::vector<unsigned char> png;
-    const fs::path file = dir / (std::to_string(i) + ".png");
-    if (!fs::exists(file) || !ReadBytes(file, png) || png.empty()) {
+    std::vector<uint8_t> png;
+    std::string unread;
+    if (!ReadFileBytes((dir / (std::to_string(i) + ".png")).string(), png, unread) || png.empty()) {
       out.error = plots[i].path + ": the plot renderer wrote no image";
       return out;
     }
