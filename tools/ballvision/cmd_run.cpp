@@ -34,7 +34,7 @@ namespace bv::cli {
 namespace {
 
 struct Args {
-  std::string seq, calib, out, lut, annotate, plots, features;
+  std::string seq, calib, out, lut, annotate, plots, features, paths;
   int predict_ms = -1;
   double at_ms = -1;
   double bounce_factor = -1;
@@ -50,7 +50,10 @@ constexpr char kRunUsage[] =
     "             <calib dir>/luts/*.lut, then the built-in colour model's table\n"
     "  --stills   frames are unrelated stills: no tracking across frames\n"
     "  --features DIR  field features per frame: DIR/lines.csv (index,x,y) and\n"
-    "             DIR/obstacles.csv (index,x,y,radius), robot frame, metres\n";
+    "             DIR/obstacles.csv (index,x,y,radius), robot frame, metres\n"
+    "  --paths FILE  per frame with the ball, the filter's prediction from then on:\n"
+    "             index,kind,t_us,x,y,z with kind 'path' every 50 ms for 2.5 s and\n"
+    "             'contact' for each predicted floor contact (robot frame, metres)\n";
 constexpr char kEvalUsage[] =
     "usage: ballvision eval SEQ --calib FILE [--lut FILE] [--plots DIR]\n"
     "       [--predict-ms N (200)] [--at-ms T (prediction plot start)]\n"
@@ -140,6 +143,27 @@ bool WriteStates(const std::string& path, const std::vector<FrameRecord>& recs, 
   return WriteFileAtomic(path, text, error);
 }
 
+// The prediction the filter holds after a frame (the studio's top view and Fig. 5 plot).
+void AppendPaths(const Pipeline& pl, const FrameRecord& r, std::string& out) {
+  if (!r.state.found) return;
+  char row[160];
+  const auto add = [&](const char* kind, uint64_t t, float x, float y, float z) {
+    std::snprintf(row, sizeof row, "%lld,%s,%llu,%.4f,%.4f,%.4f\n", static_cast<long long>(r.index),
+                  kind, static_cast<unsigned long long>(t), x, y, z);
+    out += row;
+  };
+  for (int k = 0; k <= 50; ++k) {
+    const uint64_t t = r.state.t_us + static_cast<uint64_t>(k) * 50000u;
+    Eigen::Vector3f p, v;
+    BallMode m;
+    if (pl.filter().StateAt(t, p, v, m)) add("path", t, p.x(), p.y(), p.z());
+  }
+  uint64_t tc[8];
+  float xs[8], ys[8];
+  const int nc = pl.filter().ContactsAfter(r.state.t_us, tc, xs, ys, 8);
+  for (int i = 0; i < nc; ++i) add("contact", tc[i], xs[i], ys[i], 0.f);
+}
+
 const char* MeasKind(const BallState& s) {
   if (s.flags & kFlagTriangulated) return "tri";
   if (s.flags & kFlagOmniGroundFallback) return "omni";
@@ -153,7 +177,7 @@ int CmdRun(int argc, char** argv) {
   Args a;
   ArgParser p("ballvision run", kRunUsage);
   PipelineOptions(p, a);
-  p.Text("--features", a.features);
+  p.Text("--features", a.features).Text("--paths", a.paths);
   if (const int rc = p.Parse(argc, argv); rc >= 0) return rc;
   std::string err;
   Setup s;
@@ -163,10 +187,15 @@ int CmdRun(int argc, char** argv) {
   rs.reset_each_frame = a.stills;
   rs.annotate_dir = a.annotate;
   rs.features_dir = a.features;
+  std::string paths = "index,kind,t_us,x,y,z\n";
+  if (!a.paths.empty()) {
+    rs.on_frame = [&paths](const Pipeline& pl, const FrameRecord& r) { AppendPaths(pl, r, paths); };
+  }
   std::vector<FrameRecord> recs;
   InstallInterruptHandlers();
   if (!RunSequence(s.seq, *s.pipeline, rs, recs, err) ||
-      !WriteStates(a.out, recs, a.predict_ms >= 0, err)) {
+      !WriteStates(a.out, recs, a.predict_ms >= 0, err) ||
+      (!a.paths.empty() && !WriteFileAtomic(a.paths, paths, err))) {
     std::fprintf(stderr, "ballvision run: %s\n", err.c_str());
     return 1;
   }
