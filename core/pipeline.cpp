@@ -15,6 +15,9 @@ constexpr size_t kStereoCandidates = 4;  // per camera, in the acquisition choic
 // A track outside the field is kept only while it moves at least this fast (a ball rolling out;
 // the distractors behind a line stand still).
 constexpr float kMinRollOutSpeedMps = 0.3f;
+constexpr float kMaxCandidateRangeM = 6.f;
+constexpr float kOnFloorM = 0.05f;  // a ball at rest lies on the floor  // farther, the omni floor
+                                    // point is too coarse to track
 constexpr float kAdaptMaxGapM = 0.02f;  // rays of a confirmed ball meet this close
 constexpr int kMinGoalRaysWithoutPose = 3;
 // A dark region inside a goal, behind its line by more than an obstacle centre's error, is the
@@ -324,6 +327,9 @@ Status Pipeline::Init(const RigCalibration& calibration, const ColorLut& lut,
     BV_TRY(persp_finder_.Init(persp_scan_, finder));
   }
   filter_.Configure(config_.filter);
+  candidates_.Configure(config_.candidates);
+  candidates_.Reset();
+  handover_ = Handover{};
   stats_ = PipelineStats{};
   pred_omni_ = pred_persp_ = ImagePrediction{};
   RefreshFieldRule();
@@ -339,7 +345,23 @@ void Pipeline::Predict(uint64_t t_us) {
   BallMode mode;
   BallState probe;
   filter_.FillState(t_us, 0, probe);
-  if (!probe.found || !filter_.StateAt(t_us, p, v, mode)) return;
+  if (probe.found && filter_.StateAt(t_us, p, v, mode)) {
+    handover_.valid = false;
+    PredictAt(p);
+    return;
+  }
+  // A moving candidate handed over by ReviewCandidates: the front end looks for it first.
+  constexpr uint64_t kHandoverUs = 300000;
+  if (!handover_.valid || t_us < handover_.t_us || t_us - handover_.t_us > kHandoverUs) {
+    handover_.valid = false;
+    return;
+  }
+  const float dt = static_cast<float>(t_us - handover_.t_us) * 1e-6f;
+  PredictAt(Eigen::Vector3f(handover_.x + handover_.vx * dt, handover_.y + handover_.vy * dt,
+                            calibration_->ball_radius_m));
+}
+
+bool Pipeline::PredictAt(const Eigen::Vector3f& p) {
   const float r = calibration_->ball_radius_m;
   float u, w;
   if (calibration_->omni.valid && OmniProject(calibration_->omni, p, u, w).ok()) {
@@ -363,6 +385,7 @@ void Pipeline::Predict(uint64_t t_us) {
     const float range = (p - calibration_->persp.t_robot_cam).norm();
     pred_persp_.radius_px = range > r ? calibration_->persp.fx * r / range : 0.f;
   }
+  return pred_omni_.valid || pred_persp_.valid;
 }
 
 // Front end of one camera (core/detect), fed with the projected prediction.
@@ -464,6 +487,8 @@ Status Pipeline::Process(const FrameInput& in, BallState& out) {
   AdaptColours(in, out);
   // 8. A track the pose puts outside the field.
   CheckTrackInField(have_field_pose, out);
+  // 9. The other candidates: a ball at rest is given up for one that moves like a ball.
+  ReviewCandidates(in, out);
   return Status();
 }
 
@@ -673,6 +698,62 @@ void Pipeline::CheckTrackInField(bool have_field_pose, BallState& out) {
       out.flags |= kFlagOutOfField | kFlagLost;
     }
   }
+}
+
+// The omni candidates on the floor, tracked beside the filter (core/ball_filter/candidate_tracks):
+// when the filter's ball has rested a while and another candidate moves like a ball, in the
+// field, the filter lets go and the next frame looks for that one first. In the field frame when
+// the pose is known, so a driving robot does not see a decoy at rest move.
+void Pipeline::ReviewCandidates(const FrameInput& in, const BallState& out) {
+  const RigCalibration& cal = *calibration_;
+  if (!cal.omni.valid) return;
+  RobotPose pose;
+  float sigma_m = 0;
+  const bool field = FieldPose(pose, sigma_m);
+  if (field != candidates_in_field_frame_) candidates_.Reset();
+  candidates_in_field_frame_ = field;
+  const float s = field ? std::sin(pose.heading_rad) : 0.f,
+              c = field ? std::cos(pose.heading_rad) : 1.f;
+  const auto to_frame = [&](float x, float y) {  // robot frame -> the tracks' frame
+    return field ? FloorPoint{pose.x_m + x * s + y * c, pose.y_m - x * c + y * s}
+                 : FloorPoint{x, y};
+  };
+  FloorPoint seen[kStereoCandidates];
+  size_t n = 0;
+  if (in.omni.valid()) {
+    BallDetection co[kStereoCandidates];
+    const size_t nc = omni_finder_.Candidates(co);
+    for (size_t i = 0; i < nc; ++i) {
+      // The filter's own ball (in the air its floor point lies far beyond it) is not a rival.
+      if (out.omni.found && std::hypot(co[i].u_px - out.omni.u_px, co[i].v_px - out.omni.v_px) <
+                                std::max(out.omni.radius_px, 3.f)) {
+        continue;
+      }
+      const Result<Ray> ray = OmniPixelToRayExtended(cal.omni, co[i].u_px, co[i].v_px);
+      if (!ray.ok() || ray->dir.z() > -1e-3f) continue;
+      const float k = (cal.ball_radius_m - ray->origin.z()) / ray->dir.z();
+      const Eigen::Vector3f q = ray->origin + k * ray->dir;
+      if (q.head<2>().norm() > kMaxCandidateRangeM || !InField(q.x(), q.y())) continue;
+      seen[n++] = to_frame(q.x(), q.y());
+    }
+  }
+  const FloorPoint main = to_frame(out.x_m, out.y_m);
+  const CandidateTracks::Track* t = candidates_.Update(
+      in.t_us, std::span<const FloorPoint>(seen, n),
+      out.found && out.z_m < cal.ball_radius_m + kOnFloorM, main.x_m, main.y_m,
+      std::sqrt(out.vx_mps * out.vx_mps + out.vy_mps * out.vy_mps + out.vz_mps * out.vz_mps));
+  if (t == nullptr) return;
+  // Back to the robot frame for the prediction.
+  const float dx = t->x - (field ? pose.x_m : 0.f), dy = t->y - (field ? pose.y_m : 0.f);
+  handover_ = Handover{true,
+                       field ? dx * s - dy * c : dx,
+                       field ? dx * c + dy * s : dy,
+                       field ? t->vx * s - t->vy * c : t->vx,
+                       field ? t->vx * c + t->vy * s : t->vy,
+                       in.t_us};
+  filter_.Reset();
+  candidates_.Reset();
+  ++stats_.track_handovers;
 }
 
 }  // namespace bv

@@ -6,6 +6,7 @@
 #include <cstdint>
 
 #include "core/ball_filter/ball_filter.h"
+#include "core/ball_filter/candidate_tracks.h"
 #include "core/calibration/calibration.h"
 #include "core/color_lut/color_adapt.h"
 #include "core/common/ball_state.h"
@@ -58,6 +59,7 @@ struct PipelineConfig {
   int feature_rays = 64;       // power of two; part of the omni scan table
   FieldFeatureConfig features;
   LocaliserConfig localiser;
+  CandidateTracksConfig candidates;  // the other ball candidates, tracked beside the filter
 };
 
 struct FrameInput {
@@ -76,6 +78,7 @@ struct PipelineStats {
   uint32_t feature_lookups = 0;        // LUT lookups of the field-feature pass (scan-table pixels)
   uint32_t out_of_field_rejected = 0;  // ball candidates refused by the pose (this frame)
   uint32_t tracks_dropped_out_of_field = 0;  // cumulative
+  uint32_t track_handovers = 0;  // cumulative: a ball at rest given up for a moving candidate
 };
 
 /// Where the prediction for the current frame falls in each image (attention, ball choice).
@@ -114,7 +117,11 @@ class Pipeline {
   const BallFilter& filter() const { return filter_; }
   const MeasurementInfo& last_measurement() const { return meas_; }
   /// Forgets the track (e.g. between unrelated stills); calibration and tables stay.
-  void ResetTrack() { filter_.Reset(); }
+  void ResetTrack() {
+    filter_.Reset();
+    candidates_.Reset();
+    handover_ = Handover{};
+  }
   /// Online colour adaptation (core/color_lut/color_adapt.h), fed with the detections both
   /// cameras confirm; null turns it off. The adapter must outlive the pipeline's use of it.
   void SetColorAdapter(ColorAdapter* adapter) { adapter_ = adapter; }
@@ -178,6 +185,8 @@ class Pipeline {
   void BuildObservation(const CameraRays& rays, BallState& out, BallObservation& obs);
   void AdaptColours(const FrameInput& in, const BallState& out);
   void CheckTrackInField(bool have_field_pose, BallState& out);
+  void ReviewCandidates(const FrameInput& in, const BallState& out);
+  bool PredictAt(const Eigen::Vector3f& p);
   bool OwnPoseTrusted() const;  // the localiser's pose, usable and within usable_sigma_m
   void NameGoals();
   void RefuseOffFieldObstacles();
@@ -210,6 +219,14 @@ class Pipeline {
     float x = 0, y = 0, s = 0, c = 1, half_x = 0, half_y = 0;
   };
   FieldRule field_rule_;
+  CandidateTracks candidates_;
+  bool candidates_in_field_frame_ = false;
+  struct Handover {  // a moving candidate the filter takes next (robot frame)
+    bool valid = false;
+    float x = 0, y = 0, vx = 0, vy = 0;
+    uint64_t t_us = 0;
+  };
+  Handover handover_;
 };
 
 }  // namespace bv

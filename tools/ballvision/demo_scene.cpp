@@ -105,62 +105,71 @@ DemoRenderer::DemoRenderer(const RigCalibration& cal) : cal_(cal) {
   }
 }
 
+void DemoRenderer::DrawBall(int cam, const Eigen::Vector3f& ball, std::vector<uint8_t>& rgb) const {
+  float cu, cv;
+  const bool seen = cam == 0 ? OmniProject(cal_.omni, ball, cu, cv).ok()
+                             : PerspProject(cal_.persp, ball, cu, cv).ok();
+  if (!seen) return;
+  // Bounding radius: project points one ball radius away along each axis.
+  float rad = 2.f;
+  for (int a = 0; a < 3; ++a) {
+    for (float sgn : {-1.f, 1.f}) {
+      Eigen::Vector3f q = ball;
+      q[a] += sgn * kBallR;
+      float qu, qv;
+      const bool ok = cam == 0 ? OmniProject(cal_.omni, q, qu, qv).ok()
+                               : PerspProject(cal_.persp, q, qu, qv).ok();
+      if (ok) rad = std::max(rad, std::hypot(qu - cu, qv - cv));
+    }
+  }
+  rad = rad * 1.5f + 3.f;
+  const int u0 = std::max(0, static_cast<int>(cu - rad)),
+            u1 = std::min(kW - 1, static_cast<int>(cu + rad));
+  const int v0 = std::max(0, static_cast<int>(cv - rad)),
+            v1 = std::min(kH - 1, static_cast<int>(cv + rad));
+  for (int v = v0; v <= v1; ++v) {
+    for (int u = u0; u <= u1; ++u) {
+      if (cam == 0 && std::hypot(u - cal_.omni.center_u, v - cal_.omni.center_v) < 52.f) continue;
+      // 2x2 supersampling for a soft edge; shading from the surface normal.
+      float cover = 0, shade = 0;
+      for (int sy = 0; sy < 2; ++sy) {
+        for (int sx = 0; sx < 2; ++sx) {
+          const float fu = u - 0.25f + 0.5f * sx, fv = v - 0.25f + 0.5f * sy;
+          auto ray =
+              cam == 0 ? OmniPixelToRay(cal_.omni, fu, fv) : PerspPixelToRay(cal_.persp, fu, fv);
+          if (!ray.ok()) continue;
+          const Eigen::Vector3f d = ray->dir.normalized();
+          const Eigen::Vector3f oc = ball - ray->origin;
+          const float tc = oc.dot(d);
+          const float d2 = oc.squaredNorm() - tc * tc;
+          if (tc <= 0 || d2 > kBallR * kBallR) continue;
+          const float th = std::sqrt(kBallR * kBallR - d2);
+          const Eigen::Vector3f n = (ray->origin + (tc - th) * d - ball) / kBallR;
+          cover += 0.25f;
+          shade += 0.25f * (0.7f + 0.3f * std::max(0.f, n.z()));
+        }
+      }
+      if (cover <= 0) continue;
+      uint8_t* px = &rgb[(v * kW + u) * 3];
+      const float k = shade / cover;
+      const float ball_rgb[3] = {250.f * k, 105.f * k, 25.f * k};
+      for (int ch = 0; ch < 3; ++ch) {
+        px[ch] = static_cast<uint8_t>(std::lround(cover * ball_rgb[ch] + (1 - cover) * px[ch]));
+      }
+    }
+  }
+}
+
 void DemoRenderer::Render(const Eigen::Vector3f& ball, uint32_t noise_seed,
+                          std::vector<uint8_t>& omni_yuyv, std::vector<uint8_t>& persp_yuyv) const {
+  Render(std::span<const Eigen::Vector3f>(&ball, 1), noise_seed, omni_yuyv, persp_yuyv);
+}
+
+void DemoRenderer::Render(std::span<const Eigen::Vector3f> balls, uint32_t noise_seed,
                           std::vector<uint8_t>& omni_yuyv, std::vector<uint8_t>& persp_yuyv) const {
   std::vector<uint8_t> rgb[2] = {omni_bg_, persp_bg_};
   for (int cam = 0; cam < 2; ++cam) {
-    float cu, cv;
-    const bool seen = cam == 0 ? OmniProject(cal_.omni, ball, cu, cv).ok()
-                               : PerspProject(cal_.persp, ball, cu, cv).ok();
-    if (!seen) continue;
-    // Bounding radius: project points one ball radius away along each axis.
-    float rad = 2.f;
-    for (int a = 0; a < 3; ++a) {
-      for (float sgn : {-1.f, 1.f}) {
-        Eigen::Vector3f q = ball;
-        q[a] += sgn * kBallR;
-        float qu, qv;
-        const bool ok = cam == 0 ? OmniProject(cal_.omni, q, qu, qv).ok()
-                                 : PerspProject(cal_.persp, q, qu, qv).ok();
-        if (ok) rad = std::max(rad, std::hypot(qu - cu, qv - cv));
-      }
-    }
-    rad = rad * 1.5f + 3.f;
-    const int u0 = std::max(0, static_cast<int>(cu - rad)),
-              u1 = std::min(kW - 1, static_cast<int>(cu + rad));
-    const int v0 = std::max(0, static_cast<int>(cv - rad)),
-              v1 = std::min(kH - 1, static_cast<int>(cv + rad));
-    for (int v = v0; v <= v1; ++v) {
-      for (int u = u0; u <= u1; ++u) {
-        if (cam == 0 && std::hypot(u - cal_.omni.center_u, v - cal_.omni.center_v) < 52.f) continue;
-        // 2x2 supersampling for a soft edge; shading from the surface normal.
-        float cover = 0, shade = 0;
-        for (int sy = 0; sy < 2; ++sy) {
-          for (int sx = 0; sx < 2; ++sx) {
-            const float fu = u - 0.25f + 0.5f * sx, fv = v - 0.25f + 0.5f * sy;
-            auto ray =
-                cam == 0 ? OmniPixelToRay(cal_.omni, fu, fv) : PerspPixelToRay(cal_.persp, fu, fv);
-            if (!ray.ok()) continue;
-            const Eigen::Vector3f d = ray->dir.normalized();
-            const Eigen::Vector3f oc = ball - ray->origin;
-            const float tc = oc.dot(d);
-            const float d2 = oc.squaredNorm() - tc * tc;
-            if (tc <= 0 || d2 > kBallR * kBallR) continue;
-            const float th = std::sqrt(kBallR * kBallR - d2);
-            const Eigen::Vector3f n = (ray->origin + (tc - th) * d - ball) / kBallR;
-            cover += 0.25f;
-            shade += 0.25f * (0.7f + 0.3f * std::max(0.f, n.z()));
-          }
-        }
-        if (cover <= 0) continue;
-        uint8_t* px = &rgb[cam][(v * kW + u) * 3];
-        const float k = shade / cover;
-        const float ball_rgb[3] = {250.f * k, 105.f * k, 25.f * k};
-        for (int ch = 0; ch < 3; ++ch) {
-          px[ch] = static_cast<uint8_t>(std::lround(cover * ball_rgb[ch] + (1 - cover) * px[ch]));
-        }
-      }
-    }
+    for (const Eigen::Vector3f& ball : balls) DrawBall(cam, ball, rgb[cam]);
   }
   if (noise_seed) {
     for (int cam = 0; cam < 2; ++cam) {

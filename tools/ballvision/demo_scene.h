@@ -4,6 +4,7 @@
 // mirror map for the omni camera), and frames drawn through the project's own camera models
 // (core/calibration): every pixel's viewing ray is tested against the ball sphere.
 #include <cstdint>
+#include <span>
 #include <vector>
 
 #include <Eigen/Core>
@@ -23,8 +24,12 @@ class DemoRenderer {
   /// `noise_seed` adds +-2 DN noise.
   void Render(const Eigen::Vector3f& ball_m, uint32_t noise_seed, std::vector<uint8_t>& omni_yuyv,
               std::vector<uint8_t>& persp_yuyv) const;
+  /// The same with several balls (a decoy beside the ball).
+  void Render(std::span<const Eigen::Vector3f> balls_m, uint32_t noise_seed,
+              std::vector<uint8_t>& omni_yuyv, std::vector<uint8_t>& persp_yuyv) const;
 
  private:
+  void DrawBall(int cam, const Eigen::Vector3f& ball, std::vector<uint8_t>& rgb) const;
   const RigCalibration& cal_;
   std::vector<uint8_t> omni_bg_, persp_bg_;  // RGB
 };
