@@ -117,7 +117,7 @@ Status MainLoop::Init() {
 }
 
 void MainLoop::InitPipeline() {
-  ++tables_generation_;  // a scanline capture in progress reads the old tables: it ends
+  ++tables_generation_;  // a scanline capture in progress checks that its samples stayed
   pipeline_ready_ = status_.calibration_state == static_cast<uint8_t>(BlobState::kOk) &&
                     status_.lut_state != static_cast<uint8_t>(BlobState::kMissing) &&
                     status_.lut_state != static_cast<uint8_t>(BlobState::kCorrupt) &&
@@ -515,6 +515,21 @@ const ScanlineTableBase& MainLoop::ScanTable(uint8_t camera) const {
   return camera == 0 ? pipeline_.omni_scan() : pipeline_.persp_scan();
 }
 
+// After the pipeline was rebuilt (an upload or a teach) during a scanline capture: true when
+// every requested camera's table still has the samples the capture started with (a new colour
+// table leaves them; a new calibration may not), so the streams' cursors stay valid.
+bool MainLoop::ScanTablesUnchanged() const {
+  const CaptureState& c = capture_;
+  for (uint8_t cam = 0; cam < 2; ++cam) {
+    if ((c.cameras & (1u << cam)) == 0) continue;
+    if (!pipeline_ready_ || !ScanTable(cam).built() ||
+        protocol::ScanPositionsCrc(ScanTable(cam)) != c.scan_crc[cam]) {
+      return false;
+    }
+  }
+  return true;
+}
+
 void MainLoop::BeginCaptureImage(uint8_t camera) {
   CaptureState& c = capture_;
   c.camera = camera;
@@ -614,8 +629,11 @@ void MainLoop::PumpCapture() {
     return;
   }
   if (c.mode == protocol::CaptureMode::kScanlines && c.tables_generation != tables_generation_) {
-    EndCapture(protocol::CaptureEndReason::kStopped);  // an upload rebuilt the tables
-    return;
+    if (!ScanTablesUnchanged()) {
+      EndCapture(protocol::CaptureEndReason::kStopped);  // a new calibration moved the samples
+      return;
+    }
+    c.tables_generation = tables_generation_;
   }
   for (uint32_t i = 0; i < config_.capture_chunks_per_poll; ++i) {
     const size_t space = uart_.WriteSpace();

@@ -266,6 +266,7 @@ class MainLoop {
   /// Keeps the pair for the capture (true) or leaves it to be released.
   bool TakeForCapture(const hal::FramePair& pair);
   const ScanlineTableBase& ScanTable(uint8_t camera) const;  // 0 omni, 1 persp
+  bool ScanTablesUnchanged() const;
   /// Starts streaming `camera`'s image of the held pair.
   void BeginCaptureImage(uint8_t camera);
   bool SendCaptureHeader();

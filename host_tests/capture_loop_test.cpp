@@ -9,12 +9,14 @@
 #include <vector>
 
 #include "core/common/bytes.h"
+#include "core/common/crc32.h"
 #include "core/protocol/link.h"
 #include "core/protocol/protocol.h"
 #include "core/protocol/scan_capture.h"
 #include "firmware/main_loop.h"
 #include "tools/ballvision/capture_collector.h"
 #include "tools/ballvision/demo_scene.h"
+#include "tools/ballvision/run_common.h"
 // The firmware folder is only built for the target; the loop is compiled into this test.
 #include "firmware/main_loop.cpp"  // NOLINT(build/include)
 #include "host_tests/link_sim.h"
@@ -102,7 +104,8 @@ class CaptureLoopTest : public ::testing::Test {
       ASSERT_TRUE(InstallCalibration(cal_storage_, cli::MakeDemoCalibration(), scratch_));
     }
     hal::Storage& storage = with_calibration ? static_cast<hal::Storage&>(cal_storage_) : storage_;
-    loop_ = std::make_unique<MainLoop>(*camera_, uart_, clock_, storage, scratch_);
+    loop_ = std::make_unique<MainLoop>(*camera_, uart_, clock_, storage, scratch_, MainLoopConfig(),
+                                       nullptr, upload_);
     ASSERT_TRUE(loop_->Init().ok());
     ASSERT_EQ(loop_->pipeline_ready(), with_calibration);
   }
@@ -116,6 +119,24 @@ class CaptureLoopTest : public ::testing::Test {
     const uint8_t p[4] = {static_cast<uint8_t>(count), static_cast<uint8_t>(count >> 8),
                           static_cast<uint8_t>(mode), cameras};
     Command(protocol::MsgType::kCaptureStart, p);
+  }
+  // Uploads a blob as the main computer does (begin, 512-byte chunks, commit).
+  void Upload(protocol::UploadTarget target, std::span<const uint8_t> blob) {
+    uint8_t begin[9];
+    ByteWriter b(begin);
+    b.U8(static_cast<uint8_t>(target)), b.U32(static_cast<uint32_t>(blob.size()));
+    b.U32(Crc32(blob));
+    Command(protocol::MsgType::kUploadBegin, begin);
+    for (size_t off = 0; off < blob.size(); off += 512) {
+      const size_t n = std::min<size_t>(512, blob.size() - off);
+      std::vector<uint8_t> chunk(5 + n);
+      ByteWriter w(chunk);
+      w.U8(static_cast<uint8_t>(target)), w.U32(static_cast<uint32_t>(off));
+      std::memcpy(chunk.data() + 5, blob.data() + off, n);
+      Command(protocol::MsgType::kUploadChunk, chunk);
+    }
+    const uint8_t commit = static_cast<uint8_t>(target);
+    Command(protocol::MsgType::kUploadCommit, std::span<const uint8_t>(&commit, 1));
   }
   // Polls every 100 µs of simulated time until `until_us`, or until the camera has finished and
   // the loop has nothing left to capture.
@@ -138,6 +159,7 @@ class CaptureLoopTest : public ::testing::Test {
   PacedUart uart_;
   NoStorage storage_;
   MemStorage cal_storage_;
+  std::vector<uint8_t> upload_ = std::vector<uint8_t>(kUploadBufferBytes);
   std::vector<uint8_t> scratch_ = std::vector<uint8_t>(kBlobScratchBytes);
   std::unique_ptr<SimCamera> camera_;
   std::unique_ptr<MainLoop> loop_;
@@ -318,6 +340,60 @@ TEST_F(CaptureLoopTest, ScanlineCapturePutsEverySampleOfTheTablesAtItsPixel) {
   EXPECT_LE(camera_->max_held, 2);
   const double rate = r.capture_bytes / ((r.last_chunk_us - r.first_chunk_us) * 1e-6);
   EXPECT_GT(rate, 0.7 * 92160) << rate;
+}
+
+// An upload rebuilds the pipeline: a new colour table keeps the scan tables (the capture goes
+// on, its samples still right), a calibration that moves them ends the capture.
+TEST_F(CaptureLoopTest, ScanlineCaptureOutlivesATableUploadButNotAMovedCalibration) {
+  Start(240, /*with_calibration=*/true);
+  Capture(3, protocol::CaptureMode::kScanlines);
+  RunUntil(1000 + 20 * kPeriodUs);  // inside the first pair
+  ASSERT_TRUE(loop_->capture_active());
+  static ColorLut lut;
+  cli::FillBuiltInLut(lut);
+  static uint8_t blob[kColorLutBlobBytes];
+  const Result<size_t> lut_bytes = SerializeLut(lut, blob);
+  ASSERT_TRUE(lut_bytes.ok());
+  Upload(protocol::UploadTarget::kLut, std::span<const uint8_t>(blob, *lut_bytes));
+  RunUntil(1000 + 120 * kPeriodUs);
+  EXPECT_EQ(loop_->status().lut_state, static_cast<uint8_t>(protocol::BlobState::kOk))
+      << "the upload was applied";
+  Capture(3, protocol::CaptureMode::kScanlines);  // the second capture
+  RunUntil(1000 + 140 * kPeriodUs);
+  RigCalibration moved = cli::MakeDemoCalibration();
+  moved.omni.center_u += 3.0f;
+  moved.calibration_id += 1;
+  uint8_t cal_blob[kCalibrationBlobMaxBytes];
+  const Result<size_t> cal_bytes = SerializeCalibration(moved, cal_blob);
+  ASSERT_TRUE(cal_bytes.ok());
+  Upload(protocol::UploadTarget::kCalibration, std::span<const uint8_t>(cal_blob, *cal_bytes));
+  RunUntil(1000 + 240 * kPeriodUs);
+  Drain();
+  const Received r = DecodeWire(uart_);
+  ASSERT_EQ(r.ends.size(), 2u);
+  EXPECT_EQ(r.ends[0].reason, protocol::CaptureEndReason::kComplete);
+  EXPECT_EQ(r.ends[0].pairs_sent, 3);
+  EXPECT_EQ(r.ends[1].reason, protocol::CaptureEndReason::kStopped);
+  EXPECT_LT(r.ends[1].pairs_sent, 3);
+  EXPECT_EQ(loop_->status().calibration_id, moved.calibration_id) << "the upload was applied";
+  auto host = std::make_unique<tools::ScanTables>();
+  std::string error;
+  ASSERT_TRUE(host->Build(cli::MakeDemoCalibration(), error)) << error;
+  ASSERT_GE(r.pairs.size(), 3u);
+  for (size_t i = 0; i < r.pairs.size(); ++i) {  // every pair sent is whole and right
+    const tools::CapturedPair& p = r.pairs[i];
+    for (int cam = 0; cam < 2; ++cam) {
+      std::vector<uint8_t> img;
+      ASSERT_TRUE(tools::ScanStreamToImage(p.image[cam], host->table(cam), "cam", img, error))
+          << error;
+      size_t bad = 0;
+      ForEachScanPixel(host->table(cam), [&](int u, int v) {
+        const size_t at = static_cast<size_t>(v) * 1280 + 2 * u;
+        if (img[at] != PatternByte(p.frame.omni_sequence, cam, at)) ++bad;
+      });
+      EXPECT_EQ(bad, 0u) << "pair " << i << " camera " << cam;
+    }
+  }
 }
 
 TEST_F(CaptureLoopTest, ScanlineStreamOfAnotherTableIsRefusedNamingBothCounts) {
