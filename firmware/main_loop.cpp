@@ -117,6 +117,7 @@ Status MainLoop::Init() {
 }
 
 void MainLoop::InitPipeline() {
+  ++tables_generation_;  // a scanline capture in progress checks that its samples stayed
   pipeline_ready_ = status_.calibration_state == static_cast<uint8_t>(BlobState::kOk) &&
                     status_.lut_state != static_cast<uint8_t>(BlobState::kMissing) &&
                     status_.lut_state != static_cast<uint8_t>(BlobState::kCorrupt) &&
@@ -463,6 +464,14 @@ Status MainLoop::Capture::StartCapture(const protocol::CaptureRequest& request) 
   if (loop_.camera_.MaxHeldPairs() < 2) {
     return Status(StatusCode::kUnimplemented, "capture: the camera cannot hold a second pair");
   }
+  const bool scan = request.mode == protocol::CaptureMode::kScanlines;
+  for (uint8_t cam = 0; cam < 2 && scan; ++cam) {
+    // The samples are those of the tables the pipeline runs on: none without a calibration.
+    if ((request.cameras & (1u << cam)) != 0 &&
+        (!loop_.pipeline_ready_ || !loop_.ScanTable(cam).built())) {
+      return Status(StatusCode::kUnimplemented, "capture: no scan table for a camera asked for");
+    }
+  }
   const uint16_t id = static_cast<uint16_t>(c.id + 1);
   c = CaptureState{};
   c.active = true;
@@ -470,9 +479,15 @@ Status MainLoop::Capture::StartCapture(const protocol::CaptureRequest& request) 
   c.count = request.count;
   c.mode = request.mode;
   c.cameras = request.cameras;
+  c.tables_generation = loop_.tables_generation_;
   uint16_t w = 0, h = 0;
   (void)protocol::CaptureSize(request.mode, w, h);  // the handler checked the mode
-  c.image_bytes = uint32_t{w} * h * 2u;
+  c.image_bytes = uint32_t{w} * h * 2u;             // scanlines: set per image
+  for (uint8_t cam = 0; cam < 2 && scan; ++cam) {   // once per capture: a pass over each table
+    if ((request.cameras & (1u << cam)) != 0) {
+      c.scan_crc[cam] = protocol::ScanPositionsCrc(loop_.ScanTable(cam));
+    }
+  }
   return Status();
 }
 
@@ -496,6 +511,34 @@ void MainLoop::EndCapture(protocol::CaptureEndReason reason) {
   c.end.reason = reason;
 }
 
+const ScanlineTableBase& MainLoop::ScanTable(uint8_t camera) const {
+  return camera == 0 ? pipeline_.omni_scan() : pipeline_.persp_scan();
+}
+
+// After the pipeline was rebuilt (an upload or a teach) during a scanline capture: true when
+// every requested camera's table still has the samples the capture started with (a new colour
+// table leaves them; a new calibration may not), so the streams' cursors stay valid.
+bool MainLoop::ScanTablesUnchanged() const {
+  const CaptureState& c = capture_;
+  for (uint8_t cam = 0; cam < 2; ++cam) {
+    if ((c.cameras & (1u << cam)) == 0) continue;
+    if (!pipeline_ready_ || !ScanTable(cam).built() ||
+        protocol::ScanPositionsCrc(ScanTable(cam)) != c.scan_crc[cam]) {
+      return false;
+    }
+  }
+  return true;
+}
+
+void MainLoop::BeginCaptureImage(uint8_t camera) {
+  CaptureState& c = capture_;
+  c.camera = camera;
+  c.offset = 0;
+  if (c.mode != protocol::CaptureMode::kScanlines) return;  // image_bytes is the mode's
+  c.scan.Start(ScanTable(camera), c.scan_crc[camera]);
+  c.image_bytes = c.scan.total_bytes();
+}
+
 bool MainLoop::TakeForCapture(const hal::FramePair& pair) {
   CaptureState& c = capture_;
   if (!c.active || c.holding || c.end_pending) return false;
@@ -508,8 +551,7 @@ bool MainLoop::TakeForCapture(const hal::FramePair& pair) {
   c.header_sent = false;
   c.pair = pair;
   c.pair_cameras = present;
-  c.camera = (present & protocol::kCaptureOmni) != 0 ? 0 : 1;
-  c.offset = 0;
+  BeginCaptureImage((present & protocol::kCaptureOmni) != 0 ? 0 : 1);
   return true;
 }
 
@@ -522,6 +564,45 @@ bool MainLoop::SendCapturePacket(const Result<size_t>& encoded, size_t reserve) 
   const size_t queued = tx_capacity_ > space ? tx_capacity_ - space : 0;
   if (space < *encoded + reserve || queued + *encoded > kCaptureQueueLimitBytes) return false;
   return uart_.Write(std::span<const uint8_t>(packet_, *encoded)).ok();
+}
+
+bool MainLoop::SendCaptureHeader() {
+  const CaptureState& c = capture_;
+  protocol::CaptureFrame f;
+  f.capture_id = c.id;
+  f.pair_index = c.pairs_sent;
+  f.count = c.count;
+  f.mode = c.mode;
+  f.cameras = c.pair_cameras;
+  (void)protocol::CaptureSize(c.mode, f.width, f.height);
+  f.exposure_us = c.pair.exposure_us;
+  f.omni_exposure_us = c.pair.omni.present ? c.pair.omni.exposure_us : 0;
+  f.persp_exposure_us = c.pair.persp.present ? c.pair.persp.exposure_us : 0;
+  f.omni_sequence = c.pair.omni.sequence;
+  f.persp_sequence = c.pair.persp.sequence;
+  f.image_bytes = c.image_bytes;
+  if (c.mode == protocol::CaptureMode::kScanlines) {  // both streams of the pair
+    f.image_bytes = 0;
+    for (uint8_t cam = 0; cam < 2; ++cam) {
+      if ((c.pair_cameras & (1u << cam)) == 0) continue;
+      f.image_bytes += protocol::ScanStreamBytes(ScanTable(cam).pixel_count());
+    }
+  }
+  if (!SendCapturePacket(protocol::EncodeCaptureFrame(f, seq_, packet_), kCaptureReserveBytes)) {
+    return false;
+  }
+  ++seq_;
+  return true;
+}
+
+// The next bytes of the image being streamed: decimated rows, or scan-table samples.
+bool MainLoop::FillCaptureChunk(std::span<uint8_t> out) {
+  CaptureState& c = capture_;
+  const hal::Frame& frame = c.camera == 0 ? c.pair.omni : c.pair.persp;
+  if (c.mode == protocol::CaptureMode::kScanlines) return c.scan.Read(ToImage(frame), out);
+  const size_t stride =
+      frame.stride_bytes != 0 ? frame.stride_bytes : kFrameWidth * kYuyvBytesPerPixel;
+  return protocol::CopyCaptureBytes(frame.data, stride, c.mode, c.offset, out);
 }
 
 // Waits for room instead of dropping: a packet is encoded (and gets its sequence number) only
@@ -547,6 +628,13 @@ void MainLoop::PumpCapture() {
     if (camera_.Finished()) EndCapture(protocol::CaptureEndReason::kCameraFinished);
     return;
   }
+  if (c.mode == protocol::CaptureMode::kScanlines && c.tables_generation != tables_generation_) {
+    if (!ScanTablesUnchanged()) {
+      EndCapture(protocol::CaptureEndReason::kStopped);  // a new calibration moved the samples
+      return;
+    }
+    c.tables_generation = tables_generation_;
+  }
   for (uint32_t i = 0; i < config_.capture_chunks_per_poll; ++i) {
     const size_t space = uart_.WriteSpace();
     const size_t queued = tx_capacity_ > space ? tx_capacity_ - space : 0;
@@ -555,35 +643,15 @@ void MainLoop::PumpCapture() {
       return;  // before encoding: no sequence number is spent on a packet that waits
     }
     if (!c.header_sent) {
-      protocol::CaptureFrame f;
-      f.capture_id = c.id;
-      f.pair_index = c.pairs_sent;
-      f.count = c.count;
-      f.mode = c.mode;
-      f.cameras = c.pair_cameras;
-      (void)protocol::CaptureSize(c.mode, f.width, f.height);
-      f.exposure_us = c.pair.exposure_us;
-      f.omni_exposure_us = c.pair.omni.present ? c.pair.omni.exposure_us : 0;
-      f.persp_exposure_us = c.pair.persp.present ? c.pair.persp.exposure_us : 0;
-      f.omni_sequence = c.pair.omni.sequence;
-      f.persp_sequence = c.pair.persp.sequence;
-      f.image_bytes = c.image_bytes;
-      if (!SendCapturePacket(protocol::EncodeCaptureFrame(f, seq_, packet_),
-                             kCaptureReserveBytes)) {
-        return;
-      }
-      ++seq_;
+      if (!SendCaptureHeader()) return;
       c.header_sent = true;
       continue;
     }
-    const hal::Frame& frame = c.camera == 0 ? c.pair.omni : c.pair.persp;
-    const size_t stride =
-        frame.stride_bytes != 0 ? frame.stride_bytes : kFrameWidth * kYuyvBytesPerPixel;
     uint8_t data[protocol::kCaptureChunkBytes];
     const size_t n =
         c.image_bytes - c.offset < sizeof(data) ? c.image_bytes - c.offset : sizeof(data);
-    if (!protocol::CopyCaptureBytes(frame.data, stride, c.mode, c.offset,
-                                    std::span<uint8_t>(data, n))) {
+    const protocol::ScanSampleStream rewind = c.scan;  // a chunk that waits is read again
+    if (!FillCaptureChunk(std::span<uint8_t>(data, n))) {
       ++status_.pipeline_errors;
       EndCapture(protocol::CaptureEndReason::kStopped);
       return;
@@ -596,15 +664,15 @@ void MainLoop::PumpCapture() {
     chunk.data = std::span<const uint8_t>(data, n);
     if (!SendCapturePacket(protocol::EncodeCaptureChunk(chunk, seq_, packet_),
                            kCaptureReserveBytes)) {
+      c.scan = rewind;
       return;
     }
     ++seq_;
     ++capture_chunks_sent_;
     c.offset += static_cast<uint32_t>(n);
     if (c.offset < c.image_bytes) continue;
-    c.offset = 0;
     if (c.camera == 0 && (c.pair_cameras & protocol::kCapturePersp) != 0) {
-      c.camera = 1;
+      BeginCaptureImage(1);
       continue;
     }
     camera_.Release(c.pair);

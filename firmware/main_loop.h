@@ -16,6 +16,7 @@
 #include "core/pipeline.h"
 #include "core/protocol/commands.h"
 #include "core/protocol/protocol.h"
+#include "core/protocol/scan_capture.h"
 #include "hal/camera.h"
 #include "hal/clock.h"
 #include "hal/storage.h"
@@ -255,12 +256,21 @@ class MainLoop {
     uint8_t pair_cameras = 0;  // requested and present in the held pair
     uint8_t camera = 0;        // image being streamed: 0 omni, 1 persp
     uint32_t offset = 0;
-    uint32_t image_bytes = 0;
+    uint32_t image_bytes = 0;         // of the image being streamed
+    uint32_t tables_generation = 0;   // scanlines: the tables the samples come from
+    uint32_t scan_crc[2] = {0, 0};    // scanlines: ScanPositionsCrc per camera
+    protocol::ScanSampleStream scan;  // scanlines: the image being streamed
     hal::FramePair pair;
     protocol::CaptureEnd end;
   };
   /// Keeps the pair for the capture (true) or leaves it to be released.
   bool TakeForCapture(const hal::FramePair& pair);
+  const ScanlineTableBase& ScanTable(uint8_t camera) const;  // 0 omni, 1 persp
+  bool ScanTablesUnchanged() const;
+  /// Starts streaming `camera`'s image of the held pair.
+  void BeginCaptureImage(uint8_t camera);
+  bool SendCaptureHeader();
+  bool FillCaptureChunk(std::span<uint8_t> out);
   void PumpCapture();
   bool SendCapturePacket(const Result<size_t>& encoded, size_t reserve);
   void EndCapture(protocol::CaptureEndReason reason);
@@ -282,6 +292,7 @@ class MainLoop {
   ColorLut lut_;  // 64 KB: the loop object is meant to be static, never on the stack
   Pipeline pipeline_;
   bool pipeline_ready_ = false;
+  uint32_t tables_generation_ = 0;  // +1 each time the pipeline (and its scan tables) is built
   protocol::StatusReport status_;
   uint32_t seq_ = 0;
   uint32_t ball_packets_sent_ = 0;

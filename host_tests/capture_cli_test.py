@@ -16,6 +16,7 @@ from ballvision_link.protocol import Decoder, encode_frame  # noqa: E402
 
 BV = sys.argv.pop(1) if len(sys.argv) > 1 else "build/host/tools/ballvision"
 W, H = 160, 120  # quarter
+CALIB = os.path.join(os.path.dirname(__file__), "data", "reference_rig_calib.json")
 
 
 def image(pair, camera):
@@ -152,8 +153,9 @@ class CaptureCli(unittest.TestCase):
     def test_refused_options_and_outputs(self):
         src = self.write(stream(1))
         for args, msg in ((["--pairs", "0"], "--pairs"), (["--pairs", "101"], "--pairs"),
-                          (["--mode", "eighth"], "--mode: got 'eighth', expected full, half or "
-                                                  "quarter"),
+                          (["--mode", "eighth"], "--mode: got 'eighth', expected full, half, "
+                                                  "quarter or scanlines"),
+                          (["--mode", "scanlines"], "--mode scanlines needs --calib FILE"),
                           (["--cameras", "all"], "--cameras: got 'all'")):
             r = run(src, "--out", os.path.join(self.dir, "x"), *args)
             self.assertEqual(r.returncode, 2, args)
@@ -170,6 +172,31 @@ class CaptureCli(unittest.TestCase):
         r = run(src, "--out", src)
         self.assertEqual(r.returncode, 1)
         self.assertIn("exists and is not a directory", r.stderr)
+
+    def test_scanline_stream_of_another_table_is_refused(self):
+        # A scanline stream of 5 omni samples: the reference calibration's table has thousands.
+        n = 5
+        body = struct.pack("<II", n, 0x12345678) + bytes(range(3 * n))
+        data = encode_frame(0x0B, 1, struct.pack("<HHHBBHHQQQIII", 1, 0, 1, 3, 1, 640, 480,
+                                                 1000, 1000, 0, 40, 0, len(body)))
+        data += encode_frame(0x0C, 2, struct.pack("<HHBBI", 1, 0, 0, 0, 0) + body)
+        data += encode_frame(0x0D, 3, struct.pack("<HHHB", 1, 1, 1, 0))
+        src = self.write(data)
+        r = run(src, "--out", os.path.join(self.dir, "nocal"))
+        self.assertEqual(r.returncode, 1)
+        self.assertIn("a scanline capture needs --calib FILE", r.stderr)
+        out = os.path.join(self.dir, "seq")
+        r = run(src, "--out", out, "--calib", CALIB)
+        self.assertEqual(r.returncode, 1, r.stdout + r.stderr)
+        self.assertRegex(r.stderr, r"omni: the device sent 5 scanline samples, the table built "
+                                   r"from the calibration has \d{4,}")
+        with open(os.path.join(out, "capture.json")) as f:
+            meta = f.read()
+        self.assertIn('"mode": "scanlines"', meta)
+        self.assertIn('"note": "refused: omni: the device sent 5 scanline samples', meta)
+        self.assertIn('NOT expected to give the device', meta)
+        with open(os.path.join(out, "frames.csv")) as f:
+            self.assertEqual(f.read().splitlines(), ["index,t_us,omni_file,persp_file"])
 
 
 if __name__ == "__main__":

@@ -9,10 +9,14 @@
 #include <vector>
 
 #include "core/common/bytes.h"
+#include "core/common/crc32.h"
 #include "core/protocol/link.h"
 #include "core/protocol/protocol.h"
+#include "core/protocol/scan_capture.h"
 #include "firmware/main_loop.h"
 #include "tools/ballvision/capture_collector.h"
+#include "tools/ballvision/demo_scene.h"
+#include "tools/ballvision/run_common.h"
 // The firmware folder is only built for the target; the loop is compiled into this test.
 #include "firmware/main_loop.cpp"  // NOLINT(build/include)
 #include "host_tests/link_sim.h"
@@ -94,10 +98,16 @@ std::vector<uint8_t> Expected(uint32_t pair, int camera, protocol::CaptureMode m
 
 class CaptureLoopTest : public ::testing::Test {
  protected:
-  void Start(uint32_t pairs) {
+  void Start(uint32_t pairs, bool with_calibration = false) {
     camera_ = std::make_unique<SimCamera>(clock_, pairs);
-    loop_ = std::make_unique<MainLoop>(*camera_, uart_, clock_, storage_, scratch_);
+    if (with_calibration) {
+      ASSERT_TRUE(InstallCalibration(cal_storage_, cli::MakeDemoCalibration(), scratch_));
+    }
+    hal::Storage& storage = with_calibration ? static_cast<hal::Storage&>(cal_storage_) : storage_;
+    loop_ = std::make_unique<MainLoop>(*camera_, uart_, clock_, storage, scratch_, MainLoopConfig(),
+                                       nullptr, upload_);
     ASSERT_TRUE(loop_->Init().ok());
+    ASSERT_EQ(loop_->pipeline_ready(), with_calibration);
   }
   void Command(protocol::MsgType type, std::span<const uint8_t> payload) {
     std::array<uint8_t, protocol::kMaxWireFrameBytes> wire{};
@@ -109,6 +119,24 @@ class CaptureLoopTest : public ::testing::Test {
     const uint8_t p[4] = {static_cast<uint8_t>(count), static_cast<uint8_t>(count >> 8),
                           static_cast<uint8_t>(mode), cameras};
     Command(protocol::MsgType::kCaptureStart, p);
+  }
+  // Uploads a blob as the main computer does (begin, 512-byte chunks, commit).
+  void Upload(protocol::UploadTarget target, std::span<const uint8_t> blob) {
+    uint8_t begin[9];
+    ByteWriter b(begin);
+    b.U8(static_cast<uint8_t>(target)), b.U32(static_cast<uint32_t>(blob.size()));
+    b.U32(Crc32(blob));
+    Command(protocol::MsgType::kUploadBegin, begin);
+    for (size_t off = 0; off < blob.size(); off += 512) {
+      const size_t n = std::min<size_t>(512, blob.size() - off);
+      std::vector<uint8_t> chunk(5 + n);
+      ByteWriter w(chunk);
+      w.U8(static_cast<uint8_t>(target)), w.U32(static_cast<uint32_t>(off));
+      std::memcpy(chunk.data() + 5, blob.data() + off, n);
+      Command(protocol::MsgType::kUploadChunk, chunk);
+    }
+    const uint8_t commit = static_cast<uint8_t>(target);
+    Command(protocol::MsgType::kUploadCommit, std::span<const uint8_t>(&commit, 1));
   }
   // Polls every 100 µs of simulated time until `until_us`, or until the camera has finished and
   // the loop has nothing left to capture.
@@ -130,6 +158,8 @@ class CaptureLoopTest : public ::testing::Test {
   SimClock clock_;
   PacedUart uart_;
   NoStorage storage_;
+  MemStorage cal_storage_;
+  std::vector<uint8_t> upload_ = std::vector<uint8_t>(kUploadBufferBytes);
   std::vector<uint8_t> scratch_ = std::vector<uint8_t>(kBlobScratchBytes);
   std::unique_ptr<SimCamera> camera_;
   std::unique_ptr<MainLoop> loop_;
@@ -250,6 +280,204 @@ TEST_F(CaptureLoopTest, StreamCutHalfWayKeepsTheCompletePairs) {
   ASSERT_FALSE(r.messages.empty());
   EXPECT_EQ(r.messages.back(),
             "pair 1 of capture 1 incomplete: the stream ended after 38400 of 76800 bytes");
+}
+
+// Mode 3: the samples of the scan tables the host builds from the same calibration, at their
+// pixels, equal to the source frame there (read from the pattern, not from the loop's tables).
+TEST_F(CaptureLoopTest, ScanlineCapturePutsEverySampleOfTheTablesAtItsPixel) {
+  Start(120, /*with_calibration=*/true);
+  Capture(3, protocol::CaptureMode::kScanlines);
+  RunUntil(1000 + 120 * kPeriodUs);
+  Drain();
+  const Received r = DecodeWire(uart_);
+  EXPECT_EQ(r.decoder_errors, 0u);
+  EXPECT_EQ(r.seq_gaps, 0u);
+  ASSERT_EQ(r.pairs.size(), 3u) << (r.messages.empty() ? "" : r.messages[0]);
+  ASSERT_EQ(r.ends.size(), 1u);
+  EXPECT_EQ(r.ends[0].reason, protocol::CaptureEndReason::kComplete);
+  auto host = std::make_unique<tools::ScanTables>();
+  std::string error;
+  ASSERT_TRUE(host->Build(cli::MakeDemoCalibration(), error)) << error;
+  const uint32_t n[2] = {host->table(0).pixel_count(), host->table(1).pixel_count()};
+  ASSERT_GT(n[0], 10000u);
+  ASSERT_GT(n[1], 5000u);
+  for (const tools::CapturedPair& p : r.pairs) {
+    EXPECT_EQ(p.frame.mode, protocol::CaptureMode::kScanlines);
+    EXPECT_EQ(p.frame.width, 640);
+    EXPECT_EQ(p.frame.height, 480);
+    EXPECT_EQ(p.frame.image_bytes, 16u + 3u * (n[0] + n[1]));
+    const uint32_t src = p.frame.omni_sequence;
+    for (int cam = 0; cam < 2; ++cam) {
+      std::vector<uint8_t> img;
+      ASSERT_TRUE(tools::ScanStreamToImage(p.image[cam], host->table(cam), "cam", img, error))
+          << error;
+      std::vector<uint8_t> is_sample(640 * 480, 0);
+      size_t bad = 0;
+      ForEachScanPixel(host->table(cam), [&](int u, int v) {
+        is_sample[static_cast<size_t>(v) * 640 + u] = 1;
+        const size_t row = static_cast<size_t>(v) * 1280, pair = row + (u & ~1) * 2;
+        const uint8_t* got = img.data() + pair;
+        if (got[(u & 1) * 2] != PatternByte(src, cam, row + 2 * u) ||
+            got[1] != PatternByte(src, cam, pair + 1) ||
+            got[3] != PatternByte(src, cam, pair + 3)) {
+          ++bad;
+        }
+      });
+      EXPECT_EQ(bad, 0u) << "camera " << cam << " pair " << src;
+      size_t not_fill = 0;
+      for (size_t i = 0; i < is_sample.size(); ++i) {
+        if (!is_sample[i] && img[2 * i] != tools::kScanFillY) ++not_fill;
+      }
+      EXPECT_EQ(not_fill, 0u) << "every pixel off the table is fill";
+    }
+  }
+  // The fill is nothing to the built-in table: no ball, field, line or obstacle seeds.
+  EXPECT_EQ(
+      loop_->lut().Classify(tools::kScanFillY, tools::kScanFillChroma, tools::kScanFillChroma),
+      ColorClass::kUnknown);
+  EXPECT_EQ(r.ball_done_us.size(), 120u) << "every pair kept its ball state";
+  EXPECT_EQ(loop_->status().packets_dropped, 0u);
+  EXPECT_LE(camera_->max_held, 2);
+  const double rate = r.capture_bytes / ((r.last_chunk_us - r.first_chunk_us) * 1e-6);
+  EXPECT_GT(rate, 0.7 * 92160) << rate;
+}
+
+// An upload rebuilds the pipeline: a new colour table keeps the scan tables (the capture goes
+// on, its samples still right), a calibration that moves them ends the capture.
+TEST_F(CaptureLoopTest, ScanlineCaptureOutlivesATableUploadButNotAMovedCalibration) {
+  Start(240, /*with_calibration=*/true);
+  Capture(3, protocol::CaptureMode::kScanlines);
+  RunUntil(1000 + 20 * kPeriodUs);  // inside the first pair
+  ASSERT_TRUE(loop_->capture_active());
+  static ColorLut lut;
+  cli::FillBuiltInLut(lut);
+  static uint8_t blob[kColorLutBlobBytes];
+  const Result<size_t> lut_bytes = SerializeLut(lut, blob);
+  ASSERT_TRUE(lut_bytes.ok());
+  Upload(protocol::UploadTarget::kLut, std::span<const uint8_t>(blob, *lut_bytes));
+  RunUntil(1000 + 120 * kPeriodUs);
+  EXPECT_EQ(loop_->status().lut_state, static_cast<uint8_t>(protocol::BlobState::kOk))
+      << "the upload was applied";
+  Capture(3, protocol::CaptureMode::kScanlines);  // the second capture
+  RunUntil(1000 + 140 * kPeriodUs);
+  RigCalibration moved = cli::MakeDemoCalibration();
+  moved.omni.center_u += 3.0f;
+  moved.calibration_id += 1;
+  uint8_t cal_blob[kCalibrationBlobMaxBytes];
+  const Result<size_t> cal_bytes = SerializeCalibration(moved, cal_blob);
+  ASSERT_TRUE(cal_bytes.ok());
+  Upload(protocol::UploadTarget::kCalibration, std::span<const uint8_t>(cal_blob, *cal_bytes));
+  RunUntil(1000 + 240 * kPeriodUs);
+  Drain();
+  const Received r = DecodeWire(uart_);
+  ASSERT_EQ(r.ends.size(), 2u);
+  EXPECT_EQ(r.ends[0].reason, protocol::CaptureEndReason::kComplete);
+  EXPECT_EQ(r.ends[0].pairs_sent, 3);
+  EXPECT_EQ(r.ends[1].reason, protocol::CaptureEndReason::kStopped);
+  EXPECT_LT(r.ends[1].pairs_sent, 3);
+  EXPECT_EQ(loop_->status().calibration_id, moved.calibration_id) << "the upload was applied";
+  auto host = std::make_unique<tools::ScanTables>();
+  std::string error;
+  ASSERT_TRUE(host->Build(cli::MakeDemoCalibration(), error)) << error;
+  ASSERT_GE(r.pairs.size(), 3u);
+  for (size_t i = 0; i < r.pairs.size(); ++i) {  // every pair sent is whole and right
+    const tools::CapturedPair& p = r.pairs[i];
+    for (int cam = 0; cam < 2; ++cam) {
+      std::vector<uint8_t> img;
+      ASSERT_TRUE(tools::ScanStreamToImage(p.image[cam], host->table(cam), "cam", img, error))
+          << error;
+      size_t bad = 0;
+      ForEachScanPixel(host->table(cam), [&](int u, int v) {
+        const size_t at = static_cast<size_t>(v) * 1280 + 2 * u;
+        if (img[at] != PatternByte(p.frame.omni_sequence, cam, at)) ++bad;
+      });
+      EXPECT_EQ(bad, 0u) << "pair " << i << " camera " << cam;
+    }
+  }
+}
+
+TEST_F(CaptureLoopTest, ScanlineStreamOfAnotherTableIsRefusedNamingBothCounts) {
+  Start(60, /*with_calibration=*/true);
+  Capture(1, protocol::CaptureMode::kScanlines, protocol::kCaptureOmni);
+  RunUntil(1000 + 60 * kPeriodUs);
+  Drain();
+  const Received r = DecodeWire(uart_);
+  ASSERT_EQ(r.pairs.size(), 1u);
+  EXPECT_TRUE(r.pairs[0].image[1].empty());
+  auto same = std::make_unique<tools::ScanTables>();
+  std::string error;
+  ASSERT_TRUE(same->Build(cli::MakeDemoCalibration(), error)) << error;
+  std::vector<uint8_t> img;
+  ASSERT_TRUE(tools::ScanStreamToImage(r.pairs[0].image[0], same->table(0), "omni", img, error));
+  const uint32_t n = same->table(0).pixel_count();
+  // A stream with one sample less than the host's table: refused, naming both counts.
+  std::vector<uint8_t> shorter(r.pairs[0].image[0].begin(), r.pairs[0].image[0].end() - 3);
+  ByteWriter(std::span<uint8_t>(shorter.data(), 4)).U32(n - 1);
+  EXPECT_FALSE(tools::ScanStreamToImage(shorter, same->table(0), "omni", img, error));
+  EXPECT_NE(error.find("sent " + std::to_string(n - 1) + " scanline samples"), std::string::npos)
+      << error;
+  EXPECT_NE(error.find("has " + std::to_string(n)), std::string::npos) << error;
+  // A host table from another calibration (omni centre 3 px off): refused, by count or CRC.
+  RigCalibration other = cli::MakeDemoCalibration();
+  other.omni.center_u += 3.0f;
+  auto host = std::make_unique<tools::ScanTables>();
+  ASSERT_TRUE(host->Build(other, error)) << error;
+  EXPECT_FALSE(tools::ScanStreamToImage(r.pairs[0].image[0], host->table(0), "omni", img, error));
+  EXPECT_NE(error.find("omni"), std::string::npos) << error;
+  // ... and a stream whose count is right but whose positions are not is refused by its CRC.
+  std::vector<uint8_t> forged = r.pairs[0].image[0];
+  forged[4] ^= 1;  // positions_crc32
+  EXPECT_FALSE(tools::ScanStreamToImage(forged, same->table(0), "omni", img, error));
+  EXPECT_NE(error.find("positions CRC"), std::string::npos) << error;
+}
+
+TEST_F(CaptureLoopTest, UnknownModeIsBadValueAndScanlinesWithoutCalibrationUnsupported) {
+  Start(30);  // no calibration: no scan tables
+  Capture(1, static_cast<protocol::CaptureMode>(4));
+  Capture(1, protocol::CaptureMode::kScanlines);
+  RunUntil(1000 + 30 * kPeriodUs);
+  Drain();
+  const Received r = DecodeWire(uart_);
+  ASSERT_EQ(r.errors.size(), 2u);
+  EXPECT_EQ(r.errors[0][0], static_cast<uint8_t>(protocol::MsgType::kCaptureStart));
+  EXPECT_EQ(r.errors[0][5], static_cast<uint8_t>(protocol::CommandError::kBadValue));
+  EXPECT_EQ(r.errors[1][5], static_cast<uint8_t>(protocol::CommandError::kUnsupported));
+  EXPECT_TRUE(r.pairs.empty());
+  EXPECT_FALSE(loop_->capture_active());
+}
+
+// A stream read in pieces of any size is the same stream (the chunks split samples).
+TEST(ScanSampleStream, PiecesOfAnySizeGiveTheSameBytes) {
+  ScanlineTable<kPerspScanPixels> t;
+  ASSERT_TRUE(t.BuildPersp(ReferencePerspScanConfig(), 640, 480).ok());
+  std::vector<uint8_t> frame(kFrameBytes);
+  for (size_t i = 0; i < frame.size(); ++i) frame[i] = PatternByte(3, 1, i);
+  const YuyvImage img{frame.data(), 640, 480, 1280};
+  const uint32_t crc = protocol::ScanPositionsCrc(t);
+  protocol::ScanSampleStream a, b;
+  a.Start(t, crc);
+  b.Start(t, crc);
+  ASSERT_EQ(a.total_bytes(), 8u + 3u * t.pixel_count());
+  std::vector<uint8_t> whole(a.total_bytes()), pieces(a.total_bytes());
+  ASSERT_TRUE(a.Read(img, whole));
+  for (size_t at = 0, k = 1; at < pieces.size(); at += k, k = k % 13 + 1) {
+    const size_t m = std::min(k, pieces.size() - at);
+    ASSERT_TRUE(b.Read(img, std::span<uint8_t>(pieces.data() + at, m)));
+  }
+  EXPECT_EQ(whole, pieces);
+  EXPECT_FALSE(a.Read(img, std::span<uint8_t>(whole.data(), 1))) << "past the end";
+  uint32_t samples = 0, got_crc = 0;
+  ASSERT_TRUE(protocol::ParseScanStreamHeader(whole, samples, got_crc));
+  EXPECT_EQ(samples, t.pixel_count());
+  EXPECT_EQ(got_crc, crc);
+  // The first sample: its pixel's Y, its pair's U and V.
+  ScanlineTableBase::Cursor c;
+  int u0 = -1, v0 = -1;
+  ASSERT_EQ(t.ReadSamples(c, 1, [&](int u, int v) { u0 = u, v0 = v; }), 1u);
+  const Yuv p = img.at(u0, v0);
+  EXPECT_EQ(whole[8], p.y);
+  EXPECT_EQ(whole[9], p.u);
+  EXPECT_EQ(whole[10], p.v);
 }
 
 TEST_F(CaptureLoopTest, ClockSyncReplyCarriesTheArrivalStampAndEchoesTheRequest) {

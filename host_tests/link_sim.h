@@ -7,9 +7,11 @@
 #include <cstring>
 #include <vector>
 
+#include "core/calibration/calibration.h"
 #include "core/common/image.h"
 #include "hal/camera.h"
 #include "hal/clock.h"
+#include "hal/common/blob_store.h"
 #include "hal/storage.h"
 #include "hal/uart.h"
 
@@ -161,5 +163,45 @@ class NoStorage : public hal::Storage {
   Status DoErase(int) override { return Status(); }
   Status DoWrite(int, size_t, std::span<const uint8_t>) override { return Status(); }
 };
+
+// Storage that keeps what is written (4 slots of 80 KB), for a loop that boots with a
+// calibration.
+class MemStorage : public hal::Storage {
+ public:
+  static constexpr int kSlots = 4;
+  static constexpr size_t kSlotBytes = 80 * 1024;
+  MemStorage() : mem_(kSlots * kSlotBytes, 0xFF) {}
+
+ private:
+  int DoSlotCount() const override { return kSlots; }
+  size_t DoSlotSize() const override { return kSlotBytes; }
+  Status DoRead(int slot, size_t offset, std::span<uint8_t> out) override {
+    if (slot < 0 || slot >= kSlots || offset + out.size() > kSlotBytes) {
+      return Status(StatusCode::kOutOfRange, "range");
+    }
+    std::memcpy(out.data(), mem_.data() + slot * kSlotBytes + offset, out.size());
+    return Status();
+  }
+  Status DoErase(int slot) override {
+    std::memset(mem_.data() + slot * kSlotBytes, 0xFF, kSlotBytes);
+    return Status();
+  }
+  Status DoWrite(int slot, size_t offset, std::span<const uint8_t> b) override {
+    std::memcpy(mem_.data() + slot * kSlotBytes + offset, b.data(), b.size());
+    return Status();
+  }
+  std::vector<uint8_t> mem_;
+};
+
+/// Stores `cal` in calibration slots 0 / 1 as an upload would (the loop then boots with it and
+/// builds the colour table from the built-in model). False on failure.
+inline bool InstallCalibration(hal::Storage& storage, const RigCalibration& cal,
+                               std::span<uint8_t> scratch) {
+  std::vector<uint8_t> blob(kCalibrationBlobMaxBytes);
+  const Result<size_t> n = SerializeCalibration(cal, blob);
+  if (!n.ok()) return false;
+  hal::BlobStore store(storage, 0, 1, BlobKind::kCalibration, kCalibrationBlobVersion);
+  return store.Save(std::span<const uint8_t>(blob.data(), *n), scratch).ok();
+}
 
 }  // namespace bv::fw::sim

@@ -79,6 +79,35 @@ TEST(LinkMessages, CaptureFrameChecksSizeAgainstMode) {
                "capture frame: size disagrees with the mode");
 }
 
+// Scanlines: 640x480 (the image the samples lie in), image_bytes the pair's streams (each at
+// least a header and one sample, at most a full table's).
+TEST(LinkMessages, ScanlineCaptureFrameBoundsItsStreams) {
+  protocol::CaptureFrame f;
+  f.count = 1, f.mode = CaptureMode::kScanlines, f.cameras = 3, f.width = 640, f.height = 480;
+  const auto parses = [&f](uint32_t image_bytes) {
+    f.image_bytes = image_bytes;
+    std::array<uint8_t, protocol::kMaxWireFrameBytes> wire{};
+    const Result<size_t> n = protocol::EncodeCaptureFrame(f, 0, wire);
+    EXPECT_TRUE(n.ok());
+    protocol::Decoder d;
+    const protocol::FrameView v = DecodeOne(std::span<const uint8_t>(wire.data(), *n), d);
+    protocol::CaptureFrame out;
+    return protocol::ParseCaptureFrame(v.payload, out).ok();
+  };
+  EXPECT_TRUE(parses(16 + 3 * 28401));
+  EXPECT_TRUE(parses(2 * 11));
+  EXPECT_FALSE(parses(2 * 11 - 1));
+  EXPECT_TRUE(parses(2 * (8 + 3 * 65535)));
+  EXPECT_FALSE(parses(2 * (8 + 3 * 65535) + 1));
+  f.cameras = 1;
+  EXPECT_TRUE(parses(11));
+  EXPECT_FALSE(parses(8 + 3 * 65535 + 1));
+  f.width = 160, f.height = 120;
+  EXPECT_FALSE(parses(11)) << "scanlines lie in the full image";
+  std::vector<uint8_t> src(kFrameBytes), out(16);
+  EXPECT_FALSE(protocol::CopyCaptureBytes(src.data(), 1280, CaptureMode::kScanlines, 0, out));
+}
+
 TEST(LinkMessages, BlobDataRoundTripAndBounds) {
   uint8_t data[protocol::kBlobDataBytes + 1] = {};
   for (size_t i = 0; i < sizeof data; ++i) data[i] = static_cast<uint8_t>(i * 7);
@@ -286,7 +315,7 @@ TEST_F(LinkCommands, CaptureRequestsAreBoundedAndExclusive) {
   EXPECT_EQ(Start(protocol::kMaxCapturePairs + 1, 0, 3, &detail), CommandError::kBadValue);
   EXPECT_EQ(detail, protocol::kMaxCapturePairs);  // the limit, for the sender's message
   EXPECT_EQ(Start(65535, 0, 3), CommandError::kBadValue);
-  EXPECT_EQ(Start(1, 3, 3), CommandError::kBadValue);  // no such mode
+  EXPECT_EQ(Start(1, 4, 3), CommandError::kBadValue);  // no such mode (3 is scanlines)
   EXPECT_EQ(Start(1, 0, 0), CommandError::kBadValue);  // no camera
   EXPECT_EQ(Start(1, 0, 4), CommandError::kBadValue);
   EXPECT_EQ(capture_.starts, 0) << "a refused request must not reach the loop";
@@ -300,6 +329,9 @@ TEST_F(LinkCommands, CaptureRequestsAreBoundedAndExclusive) {
   uint8_t one = 0;
   EXPECT_EQ(Send(MsgType::kCaptureStop, std::span<const uint8_t>(&one, 1)),
             CommandError::kBadLength);
+  EXPECT_EQ(Start(2, 3, 3), CommandError::kNone);
+  EXPECT_EQ(capture_.last.mode, CaptureMode::kScanlines);
+  EXPECT_EQ(Send(MsgType::kCaptureStop, {}), CommandError::kNone);
   capture_.can_hold = false;
   EXPECT_EQ(Start(1, 0, 3), CommandError::kUnsupported);
 }

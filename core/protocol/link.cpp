@@ -4,6 +4,7 @@
 
 #include "core/common/bytes.h"
 #include "core/common/image.h"
+#include "core/protocol/scan_capture.h"
 
 namespace bv::protocol {
 namespace {
@@ -18,8 +19,20 @@ int Factor(CaptureMode mode) {
       return 2;
     case CaptureMode::kQuarter:
       return 4;
+    case CaptureMode::kScanlines:
+      return 0;  // not a decimation
   }
   return 0;
+}
+
+// image_bytes of a frame: the image size, or for scanlines one or two camera streams (each at
+// least its header and a sample, at most a full table's).
+bool ImageBytesFit(const CaptureFrame& f) {
+  if (f.mode != CaptureMode::kScanlines) return f.image_bytes == uint32_t{f.width} * f.height * 2u;
+  const uint32_t streams =
+      (f.cameras & kCaptureOmni ? 1u : 0u) + (f.cameras & kCapturePersp ? 1u : 0u);
+  return f.image_bytes >= streams * ScanStreamBytes(1) &&
+         f.image_bytes <= streams * ScanStreamBytes(kMaxScanSamples);
 }
 
 Result<size_t> Finish(MsgType type, uint32_t seq, const ByteWriter& w, std::span<uint8_t> out) {
@@ -77,7 +90,7 @@ Status ParseClockSyncReply(std::span<const uint8_t> payload, ClockSyncReply& out
 }
 
 bool CaptureSize(CaptureMode mode, uint16_t& width, uint16_t& height) {
-  const int k = Factor(mode);
+  const int k = mode == CaptureMode::kScanlines ? 1 : Factor(mode);
   if (k == 0) return false;
   width = static_cast<uint16_t>(kFrameWidth / k);
   height = static_cast<uint16_t>(kFrameHeight / k);
@@ -149,7 +162,7 @@ Status ParseCaptureFrame(std::span<const uint8_t> payload, CaptureFrame& out) {
   if (f.cameras == 0 || (f.cameras & ~kAllCameras) != 0) {
     return Status(StatusCode::kInvalidArgument, "capture frame: camera bits not 1..3");
   }
-  if (f.width != w || f.height != h || f.image_bytes != uint32_t{w} * h * 2u) {
+  if (f.width != w || f.height != h || !ImageBytesFit(f)) {
     return Status(StatusCode::kInvalidArgument, "capture frame: size disagrees with the mode");
   }
   if (f.count == 0 || f.count > kMaxCapturePairs || f.pair_index >= f.count) {
@@ -203,7 +216,7 @@ Status ParseCaptureEnd(std::span<const uint8_t> payload, CaptureEnd& out) {
 bool CopyCaptureBytes(const uint8_t* src, size_t stride, CaptureMode mode, size_t offset,
                       std::span<uint8_t> out) {
   uint16_t w = 0, h = 0;
-  if (!CaptureSize(mode, w, h)) return false;
+  if (mode == CaptureMode::kScanlines || !CaptureSize(mode, w, h)) return false;
   const size_t row_bytes = size_t{w} * 2;
   const size_t total = row_bytes * h;
   if (offset > total || out.size() > total - offset) return false;

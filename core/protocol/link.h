@@ -54,6 +54,9 @@ enum class CaptureMode : uint8_t {
   kFull = 0,     // 640x480 YUYV
   kHalf = 1,     // 320x240: every 2nd row and pixel (chroma of the kept pixel's macropixel)
   kQuarter = 2,  // 160x120: every 4th
+  // The scan-table samples only, per camera a stream of core/protocol/scan_capture.h; the
+  // frame's width x height is the image they lie in (640x480), image_bytes the pair's streams.
+  kScanlines = 3,
 };
 enum CaptureCameras : uint8_t { kCaptureOmni = 1, kCapturePersp = 2 };
 enum class CaptureEndReason : uint8_t {
@@ -97,7 +100,7 @@ struct CaptureFrame {
   uint64_t exposure_us = 0;  // the pair's timestamp (the ball state's t_us)
   uint64_t omni_exposure_us = 0, persp_exposure_us = 0;
   uint32_t omni_sequence = 0, persp_sequence = 0;
-  uint32_t image_bytes = 0;  // per camera: width * height * 2
+  uint32_t image_bytes = 0;  // per camera: width * height * 2; scanlines: both streams
 };
 
 struct CaptureChunk {
@@ -117,7 +120,7 @@ struct CaptureEnd {
 
 /// kInvalidArgument: wrong length. Ranges are the command handler's business.
 Status ParseCaptureStart(std::span<const uint8_t> payload, CaptureRequest& out);
-/// Image size of a mode: false for an unknown mode.
+/// Image size of a mode (scanlines: the image the samples lie in): false for an unknown mode.
 bool CaptureSize(CaptureMode mode, uint16_t& width, uint16_t& height);
 
 Result<size_t> EncodeCaptureFrame(const CaptureFrame& f, uint32_t seq, std::span<uint8_t> out);
@@ -162,7 +165,8 @@ Status ParseBlobData(std::span<const uint8_t> payload, BlobData& out);
 
 /// Bytes [offset, offset + out.size()) of the decimated YUYV image of a 640x480 source with
 /// `stride` bytes per row. Decimation keeps pixel (k*x, k*y); its chroma is that of the
-/// source macropixel holding it. False if the range is beyond the image.
+/// source macropixel holding it. False if the range is beyond the image, or for scanlines
+/// (core/protocol/scan_capture.h streams those).
 bool CopyCaptureBytes(const uint8_t* src, size_t stride, CaptureMode mode, size_t offset,
                       std::span<uint8_t> out);
 

@@ -118,6 +118,46 @@ class ScanlineTableBase {
     }
   }
 
+  /// Where a resumable read of the table stands (ReadSamples); a default one is at the start.
+  struct Cursor {
+    int v = 0;           // row of the next sample
+    uint32_t entry = 0;  // table entry past the next sample's (valid while in_row)
+    int u = 0;           // column of the next sample (valid while in_row)
+    bool in_row = false;
+  };
+  /// Up to `max` samples from `cursor` on, in ForEachSample order (row-major): fn(u, v) each;
+  /// returns how many (0 at the end). Lets a reader walk the table piecewise (a capture streams
+  /// it chunk by chunk) without starting over.
+  template <typename Fn>
+  size_t ReadSamples(Cursor& c, size_t max, Fn&& fn) const {
+    size_t n = 0;
+    while (n < max && c.v < height_) {
+      if (!c.in_row) {
+        if (row_start_[c.v] == row_start_[c.v + 1]) {
+          ++c.v;
+          continue;
+        }
+        c.entry = row_start_[c.v] + 1u;
+        c.u = row_first_u_[c.v];
+        c.in_row = true;
+      }
+      fn(c.u, c.v);
+      ++n;
+      if (c.entry == row_start_[c.v + 1]) {  // the row's last sample (decoded as ForEachInRow)
+        c.in_row = false;
+        ++c.v;
+        continue;
+      }
+      uint32_t step = delta_[c.entry++];
+      while (step == 0) {
+        c.u += 255;
+        step = delta_[c.entry++];
+      }
+      c.u += static_cast<int>(step);
+    }
+    return n;
+  }
+
   /// The front end's hot loop over a YUYV frame: for every sample, the 4 bytes of its pixel pair
   /// (Y0 U Y1 V, read as one little-endian word) go to keep(word); for the kept ones
   /// hit(u, v, word, follows) is called, `follows` being true when the sample before it in the same

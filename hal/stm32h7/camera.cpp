@@ -14,11 +14,7 @@ uint32_t DcmiCamera::ChunkAddress(int slot, int chunk) const {
 }
 
 int DcmiCamera::FreeSlot() const {
-  const int pending = pairer_.pending_slot(hal::CameraId::kOmni);
-  for (int s = 0; s < kCaptureSlots; ++s) {
-    if (s != held_slot_ && s != pending && s != write_slot_) return s;
-  }
-  return write_slot_;  // unreachable with 4 slots; overwriting our own frame is the safe fallback
+  return slots_held_.Free(pairer_.pending_slot(hal::CameraId::kOmni), write_slot_);
 }
 
 void DcmiCamera::Restart() {
@@ -129,9 +125,12 @@ Status DcmiCamera::DoAcquirePair(hal::FramePair& out) {
   hal::PairDecision d;
   const uint64_t now = clock_.NowUs();
   const uint32_t primask = IrqSave();
-  const bool have = pairer_.TakePair(now, d);
-  if (have) held_slot_ = static_cast<int>(d.slot[0]);
+  // A third pair is not handed out: its slot could not be kept from the DMA.
+  const bool room = slots_held_.held_count() < kMaxHeldPairs;
+  const bool have = room && pairer_.TakePair(now, d);
+  if (have) slots_held_.Hold(static_cast<int>(d.slot[0]));
   IrqRestore(primask);
+  if (!room) return Status(StatusCode::kResourceExhausted, "dcmi: two pairs held already");
   if (!have) return Status(StatusCode::kUnavailable, "dcmi: no new frame");
   uint8_t* base = slots_[d.slot[0]];
   DcacheInvalidate(base, kSlotBytes);  // the DMA wrote behind the cache
@@ -153,8 +152,7 @@ Status DcmiCamera::DoAcquirePair(hal::FramePair& out) {
 }
 
 void DcmiCamera::DoRelease(const hal::FramePair& pair) {
-  (void)pair;
-  held_slot_ = -1;
+  slots_held_.Release(static_cast<int>(pair.slot));
 }
 
 }  // namespace bv::h7

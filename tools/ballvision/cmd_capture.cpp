@@ -13,11 +13,15 @@
 #include <chrono>
 #include <cstdio>
 #include <cstring>
+#include <memory>
 #include <string>
+#include <vector>
 
+#include "core/common/image.h"
 #include "core/protocol/commands.h"
 #include "core/protocol/link.h"
 #include "core/protocol/protocol.h"
+#include "tools/ballvision/calib_io.h"
 #include "tools/ballvision/capture_collector.h"
 #include "tools/ballvision/cli_args.h"
 #include "tools/ballvision/commands.h"
@@ -31,13 +35,17 @@ namespace {
 constexpr uint32_t kRequestSeq = 1;  // sequence number of our capture request
 
 const char* const kCaptureUsage =
-    "usage: ballvision capture SOURCE --out SEQ_DIR [--pairs N] [--mode full|half|quarter]\n"
+    "usage: ballvision capture SOURCE --out SEQ_DIR [--pairs N]\n"
+    "                          [--mode full|half|quarter|scanlines] [--calib FILE]\n"
     "                          [--cameras both|omni|persp] [--baud N] [--seconds S]\n"
     "  Asks the coprocessor for the next N frame pairs (1..100, default 1: a snapshot) and\n"
     "  writes SEQ_DIR/frames.csv (index = the device's frame counter), one .yuyv per\n"
     "  image, capture.csv (pair index, per-camera exposure times and frame counters) and\n"
     "  capture.json (mode, complete or not and why).\n"
     "  Half and quarter images are scaled back to 640x480 (nearest) so `run` replays them.\n"
+    "  scanlines: only the pixels the front end reads on its scan tables; --calib FILE (the\n"
+    "  calibration the device uses) places them, every other pixel is fill (grey);\n"
+    "  scan_mask_omni.pgm / scan_mask_persp.pgm mark the real pixels.\n"
     "  SOURCE: a serial device or pty, tcp:HOST:PORT, or a file / '-' holding a recorded\n"
     "  stream (decoded only, no request sent). Exit 1 when the capture is incomplete (the\n"
     "  pairs written are still a valid sequence; capture.json says what is missing).\n";
@@ -50,6 +58,8 @@ const char* ModeName(protocol::CaptureMode m) {
       return "half";
     case protocol::CaptureMode::kQuarter:
       return "quarter";
+    case protocol::CaptureMode::kScanlines:
+      return "scanlines";
   }
   return "?";
 }
@@ -89,11 +99,20 @@ const char* const kRefusalWhy[] = {"",
                                    "bad value",
                                    "",
                                    "busy: a capture is running",
-                                   "this board cannot capture",
+                                   "this board cannot capture (scanlines: no scan table, the "
+                                   "device has no calibration for a camera asked for)",
                                    ""};
 
+const char* const kScanlinesNote =
+    "only the scan-table samples are real (each sample's Y and its pixel pair's U, V, as the "
+    "classifier read them; scan_mask_omni.pgm / scan_mask_persp.pgm mark them); every other pixel "
+    "is fill (Y 128, U 128, V 128: grey, classified "
+    "as nothing by the built-in table). The attention samples and region growing read fill "
+    "there, so `ballvision run` on this sequence is NOT expected to give the device's ball "
+    "output";
+
 struct CaptureArgs {
-  std::string source, out_dir;
+  std::string source, out_dir, calib;
   int64_t pairs = 1;
   long baud = 921600;
   double seconds = 0;  // 0: as long as the request takes (DefaultSeconds)
@@ -116,8 +135,10 @@ int ParseCaptureArgs(int argc, char** argv, CaptureArgs& a) {
                   a.mode = protocol::CaptureMode::kHalf;
                 } else if (v == "quarter") {
                   a.mode = protocol::CaptureMode::kQuarter;
+                } else if (v == "scanlines") {
+                  a.mode = protocol::CaptureMode::kScanlines;
                 } else {
-                  error = "--mode: got '" + v + "', expected full, half or quarter";
+                  error = "--mode: got '" + v + "', expected full, half, quarter or scanlines";
                   return false;
                 }
                 return true;
@@ -136,6 +157,7 @@ int ParseCaptureArgs(int argc, char** argv, CaptureArgs& a) {
                 }
                 return true;
               })
+      .Text("--calib", a.calib)
       .Int("--baud", 1, 4000000, a.baud)
       .Number("--seconds", 0.1, 1e6, a.seconds);
   return args.Parse(argc, argv);
@@ -183,11 +205,12 @@ bool SendRequest(int fd, const CaptureArgs& a) {
 }
 
 double DefaultSeconds(const CaptureArgs& a) {
-  // A full-size pair is ~14 s of link time at 921600 Bd; allow twice that.
+  // A full-size pair is ~14 s of link time at 921600 Bd; allow twice that. A scanline pair
+  // (~3 bytes x 26 k samples) is about a quarter pair.
   const double pair_s = 2.0 * 1.23e6 / (a.baud / 10.0) /
                         (a.mode == protocol::CaptureMode::kFull   ? 1.0
                          : a.mode == protocol::CaptureMode::kHalf ? 4.0
-                                                                  : 16.0);
+                                                                  : 12.0);
   return 5.0 + static_cast<double>(a.pairs) * pair_s;
 }
 
@@ -209,13 +232,16 @@ bool ParseRefusal(const protocol::FrameView& frame, uint32_t& cmd_seq, std::stri
 // frames.csv and capture.csv.
 struct CaptureReceiver {
   const std::string& out_dir;
-  bool writable;  // our request was sent: its refusal ends the capture
+  bool writable;                  // our request was sent: its refusal ends the capture
+  const tools::ScanTables* scan;  // from --calib (null without): places scanline samples
   tools::CaptureCollector collector;
   protocol::Decoder decoder;
   protocol::FrameView frame;
   std::string frames_rows, capture_rows, refusal, message;
   std::string write_error;  // the image write that failed
+  std::string scan_error;   // a scanline stream that does not fit the host's tables
   uint32_t written = 0, bad = 0;
+  uint32_t samples[2] = {0, 0};  // scanline samples per image, once seen
   bool write_failed = false, done = false;
 
   void Feed(const uint8_t* bytes, size_t n) {
@@ -245,6 +271,46 @@ struct CaptureReceiver {
     if (ev == tools::CaptureCollector::Event::kBadPacket) ++bad;
     if (ev == tools::CaptureCollector::Event::kEnd) done = true;
     if (ev == tools::CaptureCollector::Event::kPairComplete) WritePair();
+    if (!scan_error.empty()) done = true;
+  }
+
+  // The 640x480 image of camera c: upsampled, or the scanline samples in place (false, the
+  // capture refused, when they do not fit the host's table).
+  bool ToImage(const tools::CapturedPair& pair, int c, std::vector<uint8_t>& image) {
+    if (pair.frame.mode != protocol::CaptureMode::kScanlines) {
+      image = tools::UpsampleCapture(pair.image[c], pair.frame.mode);
+      return true;
+    }
+    if (scan == nullptr) {
+      scan_error =
+          "a scanline capture needs --calib FILE (the calibration the device uses) to "
+          "place its samples";
+    } else if (tools::ScanStreamToImage(pair.image[c], scan->table(c), c ? "persp" : "omni", image,
+                                        scan_error)) {
+      if (samples[c] == 0) {
+        samples[c] = static_cast<uint32_t>(scan->table(c).pixel_count());
+        return WriteMask(c);
+      }
+      return true;
+    }
+    std::fprintf(stderr, "ballvision capture: %s\n", scan_error.c_str());
+    done = true;
+    return false;
+  }
+
+  // scan_mask_omni.pgm / scan_mask_persp.pgm: 255 at the real (sample) pixels, 0 at fill.
+  bool WriteMask(int c) {
+    std::string pgm = "P5\n640 480\n255\n";
+    const size_t head = pgm.size();
+    pgm.resize(head + static_cast<size_t>(kFrameWidth) * kFrameHeight, '\0');
+    ForEachScanPixel(scan->table(c), [&](int u, int v) {
+      pgm[head + static_cast<size_t>(v) * kFrameWidth + u] = static_cast<char>(255);
+    });
+    const std::string name = std::string("/scan_mask_") + (c ? "persp" : "omni") + ".pgm";
+    if (WriteFileAtomic(out_dir + name, pgm, write_error)) return true;
+    std::fprintf(stderr, "ballvision capture: %s\n", write_error.c_str());
+    write_failed = true;
+    return false;
   }
 
   void WritePair() {
@@ -256,9 +322,10 @@ struct CaptureReceiver {
     std::string names[2];
     for (int c = 0; c < 2 && !write_failed; ++c) {
       if (pair.image[c].empty()) continue;
+      std::vector<uint8_t> image;
+      if (!ToImage(pair, c, image)) return;
       names[c] = std::string(c ? "persp_" : "omni_") + std::to_string(index) + ".yuyv";
-      if (!WriteFileAtomic(out_dir + "/" + names[c], tools::UpsampleCapture(pair.image[c], f.mode),
-                           write_error)) {
+      if (!WriteFileAtomic(out_dir + "/" + names[c], image, write_error)) {
         std::fprintf(stderr, "ballvision capture: %s\n", write_error.c_str());
         write_failed = true;
       }
@@ -305,6 +372,8 @@ CaptureOutcome Outcome(const CaptureReceiver& rx, const CaptureArgs& a) {
   o.mode = col.seen_any() ? col.first().mode : a.mode;
   if (!rx.refusal.empty()) {
     o.note = "refused by the coprocessor: " + rx.refusal;
+  } else if (!rx.scan_error.empty()) {
+    o.note = "refused: " + rx.scan_error;
   } else if (!col.seen_any()) {
     o.note = "no capture packets received";
   } else if (!col.ended()) {
@@ -323,8 +392,17 @@ std::string CaptureJson(const CaptureOutcome& o, const CaptureReceiver& rx) {
   const tools::CaptureCollector& col = rx.collector;
   std::string json = "{\n  \"format\": \"ballvision capture\",\n  \"version\": 1,\n";
   json += "  \"mode\": " + JsonString(ModeName(o.mode)) + ",\n";
+  const bool scan = o.mode == protocol::CaptureMode::kScanlines;
   json += std::string("  \"upsampled_to_640x480\": ") +
-          (o.mode == protocol::CaptureMode::kFull ? "false" : "true") + ",\n";
+          (o.mode == protocol::CaptureMode::kFull || scan ? "false" : "true") + ",\n";
+  if (scan) {
+    json += "  \"scanline_samples\": {\"omni\": " + std::to_string(rx.samples[0]) +
+            ", \"persp\": " + std::to_string(rx.samples[1]) + "},\n";
+    json += "  \"fill_yuv\": [" + std::to_string(tools::kScanFillY) + ", " +
+            std::to_string(tools::kScanFillChroma) + ", " + std::to_string(tools::kScanFillChroma) +
+            "],\n";
+    json += "  \"scanlines_note\": " + JsonString(kScanlinesNote) + ",\n";
+  }
   json += "  \"pairs_requested\": " + std::to_string(o.requested) + ",\n";
   json += "  \"pairs_written\": " + std::to_string(rx.written) + ",\n";
   json += "  \"pairs_broken\": " + std::to_string(col.pairs_broken()) + ",\n";
@@ -377,6 +455,23 @@ int CmdCapture(int argc, char** argv) {
     std::fprintf(stderr, "ballvision capture: %s\n", err.c_str());
     return 1;
   }
+  if (a.mode == protocol::CaptureMode::kScanlines && a.calib.empty()) {
+    std::fprintf(stderr,
+                 "ballvision capture: --mode scanlines needs --calib FILE (the calibration the "
+                 "device uses: its scan tables place the samples)\n");
+    if (fd != STDIN_FILENO) close(fd);
+    return 2;
+  }
+  std::unique_ptr<tools::ScanTables> scan;
+  if (!a.calib.empty()) {
+    RigCalibration cal;
+    scan = std::make_unique<tools::ScanTables>();
+    if (!LoadCalibrationFile(a.calib, cal, err) || !scan->Build(cal, err)) {
+      std::fprintf(stderr, "ballvision capture: %s\n", err.c_str());
+      if (fd != STDIN_FILENO) close(fd);
+      return 1;
+    }
+  }
   InstallInterruptHandlers();
   if (writable) {
     if (!SendRequest(fd, a)) {
@@ -385,7 +480,7 @@ int CmdCapture(int argc, char** argv) {
     }
     if (a.seconds == 0) a.seconds = DefaultSeconds(a);
   }
-  CaptureReceiver rx{a.out_dir, writable};
+  CaptureReceiver rx{a.out_dir, writable, scan.get()};
   Receive(fd, a.seconds, rx);
   if (fd != STDIN_FILENO) close(fd);
   if (InterruptSignal()) ReportInterrupt("ballvision capture");

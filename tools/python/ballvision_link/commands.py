@@ -13,7 +13,7 @@ REQUEST_STATUS, SET_PARAM, UPLOAD_BEGIN, UPLOAD_CHUNK, UPLOAD_COMMIT = 0x20, 0x2
 SET_FIELD_HALF, ODOMETRY, SET_POSE = 0x25, 0x26, 0x27
 CLOCK_SYNC, CAPTURE_START, CAPTURE_STOP, TEACH_BALL, READ_BLOB = 0x28, 0x29, 0x2A, 0x2B, 0x2C
 TEACH_FLOOR, TEACH_OMNI_PIXEL, TEACH_PERSP_PIXEL = 0, 1, 2
-CAPTURE_FULL, CAPTURE_HALF, CAPTURE_QUARTER = 0, 1, 2
+CAPTURE_FULL, CAPTURE_HALF, CAPTURE_QUARTER, CAPTURE_SCANLINES = 0, 1, 2, 3
 CAPTURE_OMNI, CAPTURE_PERSP = 1, 2
 TARGET_CALIBRATION, TARGET_LUT = 1, 2
 MAX_CHUNK = 512
@@ -59,11 +59,14 @@ def clock_sync(seq: int, rid: int, t1_us: int) -> bytes:
 
 def capture_start(seq: int, count: int, mode: int = CAPTURE_FULL,
                   cameras: int = CAPTURE_OMNI | CAPTURE_PERSP) -> bytes:
-    """Stream the next `count` pairs (1..100; 1 = a snapshot) at full, half or quarter size."""
+    """Stream the next `count` pairs (1..100; 1 = a snapshot) at full, half or quarter size, or
+    (CAPTURE_SCANLINES) only the scan-table samples: per camera sample_count u32,
+    positions_crc32 u32, then Y U V per sample in table order (docs/protocol.md, "Capture")."""
     if not 1 <= count <= 100:
         raise ValueError("capture: count must be 1..100")
-    if mode not in (CAPTURE_FULL, CAPTURE_HALF, CAPTURE_QUARTER) or cameras not in (1, 2, 3):
-        raise ValueError("capture: mode 0..2, cameras 1..3")
+    if mode not in (CAPTURE_FULL, CAPTURE_HALF, CAPTURE_QUARTER, CAPTURE_SCANLINES) or \
+            cameras not in (1, 2, 3):
+        raise ValueError("capture: mode 0..3, cameras 1..3")
     return encode_frame(CAPTURE_START, seq, struct.pack("<HBB", count, mode, cameras))
 
 

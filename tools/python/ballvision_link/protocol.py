@@ -68,7 +68,11 @@ _CAPTURE_END = struct.Struct("<HHHB")
 assert _LINES_HEAD.size == 12 and _OBSTACLES_HEAD.size == 10
 assert _SYNC_REPLY.size == 28 and _CAPTURE_FRAME.size == 48 and _CAPTURE_CHUNK_HEAD.size == 10
 assert _CAPTURE_END.size == 7
-CAPTURE_MODES = {0: (640, 480), 1: (320, 240), 2: (160, 120)}  # full, half, quarter
+# full, half, quarter, scanlines (the samples lie in a 640x480 image; image_bytes is both
+# cameras' streams: 8 header bytes and 3 per sample each)
+CAPTURE_MODES = {0: (640, 480), 1: (320, 240), 2: (160, 120), 3: (640, 480)}
+CAPTURE_SCANLINES = 3
+SCAN_STREAM_HEADER_BYTES, SCAN_SAMPLE_BYTES, SCAN_MAX_SAMPLES = 8, 3, 65535
 CAPTURE_MAX_PAIRS, CAPTURE_CHUNK_BYTES, FRAME_BYTES = 100, 512, 640 * 480 * 2
 CAPTURE_END_REASONS = ("complete", "stopped", "camera finished")
 MAX_LINE_POINTS, MAX_OBSTACLES, MAX_GOALS = 64, 16, 2
@@ -369,8 +373,15 @@ def parse_capture_frame(seq: int, payload: bytes) -> Optional[CaptureFrame]:
         return None
     f = CaptureFrame(seq, *_CAPTURE_FRAME.unpack(payload))
     size = CAPTURE_MODES.get(f.mode)
-    if size is None or f.cameras not in (1, 2, 3) or (f.width, f.height) != size or \
-            f.image_bytes != f.width * f.height * 2:
+    if size is None or f.cameras not in (1, 2, 3) or (f.width, f.height) != size:
+        return None
+    if f.mode == CAPTURE_SCANLINES:
+        streams = bin(f.cameras).count("1")
+        one, most = SCAN_STREAM_HEADER_BYTES + SCAN_SAMPLE_BYTES, \
+            SCAN_STREAM_HEADER_BYTES + SCAN_SAMPLE_BYTES * SCAN_MAX_SAMPLES
+        if not streams * one <= f.image_bytes <= streams * most:
+            return None
+    elif f.image_bytes != f.width * f.height * 2:
         return None
     if not 0 < f.count <= CAPTURE_MAX_PAIRS or f.pair_index >= f.count:
         return None

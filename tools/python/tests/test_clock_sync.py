@@ -133,8 +133,22 @@ class LinkMessagesTest(unittest.TestCase):
         for bad in (0, 101):
             with self.assertRaisesRegex(ValueError, "1..100"):
                 commands.capture_start(1, bad)
+        frame = commands.capture_start(1, 5, commands.CAPTURE_SCANLINES, 1)
+        mtype, _, payload = Decoder().feed(frame)[0]
+        self.assertEqual((mtype, payload), (0x29, struct.pack("<HBB", 5, 3, 1)))
         with self.assertRaisesRegex(ValueError, "mode"):
-            commands.capture_start(1, 1, 3)
+            commands.capture_start(1, 1, 4)
+
+    def test_scanline_capture_frame(self):
+        def frame(cameras, image_bytes):
+            return encode_frame(0x0B, 1, struct.pack("<HHHBBHHQQQIII", 1, 0, 1, 3, cameras, 640,
+                                                     480, 5, 5, 5, 7, 7, image_bytes))
+        msgs = Decoder().feed(frame(3, 16 + 3 * (15000 + 10000)))
+        self.assertEqual([type(m) for m in msgs], [CaptureFrame])
+        self.assertEqual((msgs[0].mode, msgs[0].width), (3, 640))
+        d = Decoder()
+        self.assertEqual(d.feed(frame(3, 11) + frame(1, 8 + 3 * 65536)), [])  # too few / many
+        self.assertEqual(d.errors["payload"], 2)
 
 
 if __name__ == "__main__":
