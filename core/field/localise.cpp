@@ -10,7 +10,7 @@ namespace {
 
 constexpr float kPi = 3.14159265358979f;
 constexpr int kScorePoints = 24;    // points per coarse evaluation
-constexpr int kRefinePerFrame = 2;  // global search candidates refined per frame (~30 k instr each)
+constexpr int kRefinePerFrame = 4;  // global search candidates refined per frame (~30 k instr each)
 // The coarse grid is scored with a wide error function (c = 2 grid steps): a grid point 0.25 m
 // from the true pose must still score better than a wrong pose that happens to sit on lines.
 constexpr float kSearchCPerGrid = 2.0f;
