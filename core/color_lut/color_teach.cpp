@@ -60,8 +60,31 @@ float HueMean(float sum_cos, float sum_sin) { return std::atan2(sum_sin, sum_cos
 
 }  // namespace
 
+// atan(k / 64) in degrees, k = 0..64: HueDeg interpolates it (error < 0.002 deg, far below the
+// 1 deg bins) at a fraction of atan2f's cost, for the device's online adaptation (128 pixels a
+// confirmed pair).
+constexpr float kAtanDeg[65] = {
+    0.000000f,  0.895174f,  1.789911f,  2.683775f,  3.576334f,  4.467159f,  5.355825f,  6.241914f,
+    7.125016f,  8.004729f,  8.880659f,  9.752425f,  10.619655f, 11.481991f, 12.339087f, 13.190611f,
+    14.036243f, 14.875682f, 15.708638f, 16.534838f, 17.354025f, 18.165957f, 18.970408f, 19.767169f,
+    20.556045f, 21.336859f, 22.109448f, 22.873665f, 23.629378f, 24.376469f, 25.114835f, 25.844388f,
+    26.565051f, 27.276763f, 27.979474f, 28.673146f, 29.357754f, 30.033280f, 30.699723f, 31.357085f,
+    32.005383f, 32.644640f, 33.274888f, 33.896167f, 34.508523f, 35.112011f, 35.706691f, 36.292630f,
+    36.869898f, 37.438572f, 37.998732f, 38.550465f, 39.093859f, 39.629005f, 40.156000f, 40.674940f,
+    41.185925f, 41.689058f, 42.184443f, 42.672185f, 43.152390f, 43.625165f, 44.090620f, 44.548861f,
+    45.000000f};
+
 float HueDeg(const Yuv& p) {
-  return std::atan2(static_cast<float>(p.v) - 128.0f, static_cast<float>(p.u) - 128.0f) * kRadToDeg;
+  const float du = static_cast<float>(p.u) - 128.0f, dv = static_cast<float>(p.v) - 128.0f;
+  const float ax = std::fabs(du), ay = std::fabs(dv);
+  if (ax == 0.0f && ay == 0.0f) return 0.0f;
+  const bool steep = ay > ax;
+  const float t = (steep ? ax / ay : ay / ax) * 64.0f;
+  const int k = static_cast<int>(t) < 64 ? static_cast<int>(t) : 63;
+  float a = kAtanDeg[k] + (t - static_cast<float>(k)) * (kAtanDeg[k + 1] - kAtanDeg[k]);
+  if (steep) a = 90.0f - a;
+  if (du < 0.0f) a = 180.0f - a;
+  return dv < 0.0f ? -a : a;
 }
 
 float RelativeChroma(const Yuv& p) {
