@@ -458,8 +458,8 @@ void PrintFrame(const Pipeline& p, const FrameRecord& rec, const TruthRow& t, do
       e.sigma_x_m, e.quality, e.ambiguous, ff.line_count, ff.obstacle_count, ff.goal_count, t.rx,
       t.ry, t.rh_deg);
   std::printf("  ball %s (%.2f, %.2f, %.2f) | truth (%.2f, %.2f, %.2f) | handovers so far %u\n",
-              rec.state.found ? "found" : "none", rec.state.x_m, rec.state.y_m, rec.state.z_m,
-              t.bx, t.by, t.bz, p.last_stats().track_handovers);
+              rec.state.found ? "found" : "none", rec.state.x_m, rec.state.y_m, rec.state.z_m, t.bx,
+              t.by, t.bz, p.last_stats().track_handovers);
   for (int i = 0; i < ff.goal_count; ++i) {
     const Goal& g = ff.goals[i];
     std::printf("  goal (%.2f, %.2f) d %.2f bearing %.1f +- %.1f deg rays %d posts %d which %d\n",
