@@ -10,13 +10,27 @@ constexpr int kRingSamples = 8;
 constexpr float kRingCos[kRingSamples] = {1, 0.7071f, 0, -0.7071f, -1, -0.7071f, 0, 0.7071f};
 constexpr float kRingSin[kRingSamples] = {0, 0.7071f, 1, 0.7071f, 0, -0.7071f, -1, -0.7071f};
 
+// The smallest model holding both: the hue window spanning both, the lower floors, the higher
+// ceiling, the wider luma range (the start model's knee).
+BallColorModel Union(const BallColorModel& a, const BallColorModel& b) {
+  BallColorModel u = a;
+  u.hue_min_deg = std::fmin(a.hue_min_deg, b.hue_min_deg);
+  u.hue_max_deg = std::fmax(a.hue_max_deg, b.hue_max_deg);
+  u.chroma_min = std::fmin(a.chroma_min, b.chroma_min);
+  u.chroma_min_bright = std::fmin(a.chroma_min_bright, b.chroma_min_bright);
+  u.chroma_max = std::fmax(a.chroma_max, b.chroma_max);
+  u.y_min = a.y_min < b.y_min ? a.y_min : b.y_min;
+  u.y_max = a.y_max > b.y_max ? a.y_max : b.y_max;
+  return u;
+}
+
 }  // namespace
 
 void ColorAdapter::Start(const BallColorModel& model, ColorLut* table,
                          const ColorAdaptConfig& config) {
   config_ = config;
   table_ = table;
-  model_ = pending_ = model;
+  start_ = model_ = pending_ = model;
   ball_.Clear();
   guard_count_ = guard_next_ = 0;
   frames_since_refit_ = 0;
@@ -87,6 +101,10 @@ void ColorAdapter::Step() {
   if (ball_.count() >= config_.min_pixels) {
     BallColorModel fitted;
     bool ok = ball_.Fit(model_, fitted).ok();
+    if (ok) {
+      fitted = Union(start_, fitted);
+      ok = ValidateBallColorModel(fitted).ok();  // a window over 170 deg: keep the old model
+    }
     if (ok) {
       const BallColorTest test(fitted);
       int taken = 0;

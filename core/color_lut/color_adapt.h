@@ -37,7 +37,10 @@ class ColorAdapter {
   static constexpr int kGuardSamples = 256;
 
   /// `table` is the live table the pipeline classifies with; `model` the model it was built
-  /// from (the built-in one, or a taught one). Resets the statistics.
+  /// from (the built-in one, or a taught one). Resets the statistics. Adaptation only adds to
+  /// `model`: every refit is the union of it and the fit, so a refit from a few frames of one
+  /// light can never lose the colours the start model finds (the shaded side of a ball resting
+  /// behind a robot).
   void Start(const BallColorModel& model, ColorLut* table, const ColorAdaptConfig& config = {});
   bool active() const { return table_ != nullptr; }
   void Stop() { table_ = nullptr; }
@@ -60,7 +63,7 @@ class ColorAdapter {
  private:
   ColorAdaptConfig config_;
   ColorLut* table_ = nullptr;
-  BallColorModel model_, pending_;
+  BallColorModel start_, model_, pending_;  // start_: the floor adaptation never gives up
   BallColorStats ball_;
   Yuv guard_[kGuardSamples] = {};
   int guard_count_ = 0, guard_next_ = 0;
