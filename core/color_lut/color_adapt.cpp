@@ -24,6 +24,13 @@ BallColorModel Union(const BallColorModel& a, const BallColorModel& b) {
   return u;
 }
 
+bool Same(const BallColorModel& a, const BallColorModel& b) {
+  return a.hue_min_deg == b.hue_min_deg && a.hue_max_deg == b.hue_max_deg &&
+         a.chroma_min == b.chroma_min && a.chroma_min_bright == b.chroma_min_bright &&
+         a.chroma_max == b.chroma_max && a.bright_y == b.bright_y &&
+         a.bright_y_end == b.bright_y_end && a.y_min == b.y_min && a.y_max == b.y_max;
+}
+
 }  // namespace
 
 void ColorAdapter::Start(const BallColorModel& model, ColorLut* table,
@@ -112,7 +119,10 @@ void ColorAdapter::Step() {
         taken += test.Contains(guard_[i].y, guard_[i].u, guard_[i].v);
       ok = static_cast<float>(taken) <= config_.max_guard_taken * static_cast<float>(guard_count_);
     }
-    if (ok) {
+    if (ok && Same(fitted, model_)) {
+      // The table already is this model (the light stays within the start model): no rebuild.
+      ++stats_.refits_unchanged;
+    } else if (ok) {
       pending_ = fitted;
       next_row_ = 0;
       ++stats_.refits;

@@ -27,8 +27,9 @@ struct ColorAdaptConfig {
 
 struct ColorAdaptStats {
   uint32_t frames_observed = 0;
-  uint32_t refits = 0;          // models accepted (and rebuilt)
-  uint32_t refits_refused = 0;  // by the guard set or an invalid fit
+  uint32_t refits = 0;            // models accepted (and rebuilt)
+  uint32_t refits_refused = 0;    // by the guard set or an invalid fit
+  uint32_t refits_unchanged = 0;  // accepted fits that left the model as it was (no rebuild)
   uint32_t rebuilds_done = 0;
 };
 

@@ -490,10 +490,10 @@ void PrintAdaptation(const ColorAdapter& adapter) {
   const ColorAdaptStats& s = adapter.stats();
   const BallColorModel& m = adapter.model();
   std::printf(
-      "colour adaptation        %u confirmed frames, %u refits (%u refused), model now "
-      "hue %.1f..%.1f deg, chroma >= %.2f, Y >= %d\n",
-      s.frames_observed, s.refits, s.refits_refused, m.hue_min_deg, m.hue_max_deg, m.chroma_min,
-      m.y_min);
+      "colour adaptation        %u confirmed frames, %u refits (%u refused, %u left the model as "
+      "it was), model now hue %.1f..%.1f deg, chroma >= %.2f, Y >= %d\n",
+      s.frames_observed, s.refits, s.refits_refused, s.refits_unchanged, m.hue_min_deg,
+      m.hue_max_deg, m.chroma_min, m.y_min);
 }
 
 }  // namespace
