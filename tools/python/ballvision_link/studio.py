@@ -265,11 +265,13 @@ class LiveLink:
                     self.replies[reply[1]] = reply
                     self.cv.notify_all()
             if self.capture is not None:
-                done, text = self.capture.feed(msg)
+                writer = self.capture
+                done, text = writer.feed(msg)
                 if done:
                     self.capture_msg, self.capture = text, None
-                    if self.on_capture:
-                        threading.Thread(target=self.on_capture, args=(text,), daemon=True).start()
+                    if self.on_capture and writer.rows:  # open what was written
+                        threading.Thread(target=self.on_capture, args=(str(writer.out),),
+                                         daemon=True).start()
 
     def send(self, frame):
         link = self.link
@@ -296,8 +298,9 @@ class LiveLink:
             return self.replies.pop(seq)[2]
 
     def upload_lut(self, blob):
-        n = len(commands.upload(0, commands.TARGET_LUT, b"")) + (len(blob) + 511) // 512 - 1
-        seq0 = self._seq(n + 1)
+        # begin, the chunks, commit: one sequence number each
+        count = 2 + (len(blob) + commands.MAX_CHUNK - 1) // commands.MAX_CHUNK
+        seq0 = self._seq(count)
         frames = commands.upload(seq0, commands.TARGET_LUT, blob)
         for i, frame in enumerate(frames):
             err = self.command(frame, seq0 + i)
@@ -363,17 +366,13 @@ class Studio:
         self.field = load_field(a.calib)
         self.live = None
         seq_dir = a.seq
-        if Path(a.source).is_dir() or a.source.endswith("frames.csv") or not _is_link(a.source):
-            seq_dir = a.source
-        else:
+        if _is_link(a.source):
             self.live = LiveLink(a.source, a.baud, self.work)
-            self.live.on_capture = self._captured
+            self.live.on_capture = self.seq.open
+        else:
+            seq_dir = a.source
         if seq_dir:
             self.seq.open(seq_dir)
-
-    def _captured(self, text):
-        if self.live and self.live.capture_msg and "written to" in text:
-            self.seq.open(text.split("written to ", 1)[1].split(";")[0].strip())
 
     def state(self):
         return {"field": self.field, "work": str(self.work), "sequence": self.seq.summary(),
