@@ -29,6 +29,7 @@ constexpr float kUnobservableGateRad = 0.15f;  // direction gate while the range
 constexpr float kUnknownDepthM = 4.f;          // where a lone ray above the floor's horizon starts
 constexpr float kAmbiguousChi2 = 4.f;  // two flights this close in chi^2 but apart: ambiguous
 constexpr float kFloorChi2 = 9.f;      // the floor must not cost more than 3 sigma (1 dof: height)
+constexpr int kStereoFramesForOneStart = 3;  // a flight fit from the current state suffices
 
 float Seconds(uint64_t a_us, uint64_t b_us) {  // a - b in seconds, signed
   return a_us >= b_us ? static_cast<float>(a_us - b_us) * 1e-6f
@@ -433,7 +434,12 @@ BallFilter::Fit BallFilter::SolveFlight(const Segment& seg) const {
   float chi2[3];
   bool plausible[3];
   const Stored& nw = Newest(0);
-  for (int i = 0; i < 3; ++i) {
+  // Frames seen by both cameras fix the positions by themselves: the current state is start
+  // enough, and the other starts (each a cold fit) would only find the same flight.
+  int stereo = 0;
+  for (int i = 0; i < count_ && Newest(i).t_us >= seg.start_us; ++i) stereo += Newest(i).n > 1;
+  const int starts = stereo >= kStereoFramesForOneStart ? 1 : 3;
+  for (int i = 0; i < starts; ++i) {
     Vec6 start = fit_.x;
     if (i > 0) {
       start.setZero();
@@ -446,7 +452,7 @@ BallFilter::Fit BallFilter::SolveFlight(const Segment& seg) const {
     if (i == 0 || (plausible[i] && (!Plausible(best) || f.chi2 < best.chi2))) best = f;
   }
   // Another plausible flight nearly as good but elsewhere: the rays cannot tell them apart yet.
-  for (int i = 0; i < 3; ++i) {
+  for (int i = 0; i < starts; ++i) {
     if (plausible[i] && chi2[i] < best.chi2 + kAmbiguousChi2 &&
         (where[i] - best.x.head<3>()).norm() > cfg_.unobservable_sigma_m) {
       best.ambiguous = true;

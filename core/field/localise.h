@@ -31,7 +31,8 @@ struct LocaliserConfig {
   float global_inlier_ratio = 0.75f;   // a global search result must fit this well
   int lost_after_bad_frames = 20;      // bad fits in a row: relocalise globally
   int evals_per_frame = 250;           // global search: at most this many poses per frame ...
-  int search_points_per_frame = 3000;  // ... and this many line points scored (the cost)
+  int search_points_per_frame = 2000;  // ... and this many line points scored (~125 instr each;
+                                       // 3000 put a search frame over 1.5 M a pair)
   float grid_m = 1.0f;                 // global search position grid
   float coast_pos_mps = 0.5f;          // sigma growth while coasting without odometry
   float coast_heading_radps = 0.2f;
