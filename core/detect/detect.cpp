@@ -213,6 +213,13 @@ Status BallFinder::Find(const YuyvImage& image, const ColorLut& lut, const Predi
 
 // Normal samples around the prediction from the sum of four 12-bit uniforms (Irwin-Hall, no
 // libm); a seed at every ball-coloured one. Returns the pixels read.
+bool BallFinder::InsideTracedBox(int u, int v) const {
+  for (const Region& r : regions_.regions()) {
+    if (!r.hole && u > r.u_min && u < r.u_max && v > r.v_min && v < r.v_max) return true;
+  }
+  return false;
+}
+
 uint32_t BallFinder::Attend(const YuyvImage& image, const ColorLut& lut,
                             const Prediction* prediction, FrontEndStats& stats) {
   uint32_t attention_reads = 0;
@@ -237,7 +244,12 @@ uint32_t BallFinder::Attend(const YuyvImage& image, const ColorLut& lut,
     attention_v_[attention_count_] = static_cast<int16_t>(v);
     ++attention_count_;
     ++attention_reads;
-    if (ClassAt(image, lut, u, v) == ColorClass::kBall) Seed(image, lut, u, v, stats);
+    // A sample inside the box of a region traced already is almost always in that region: its
+    // walk to the boundary (up to the ball's width, every pixel classified) and the contour check
+    // are skipped. The scanlines still seed anything else inside the box.
+    if (ClassAt(image, lut, u, v) == ColorClass::kBall && !InsideTracedBox(u, v)) {
+      Seed(image, lut, u, v, stats);
+    }
   }
   return attention_reads;
 }

@@ -121,6 +121,7 @@ class BallFinder {
     bool in_field = false;
     uint32_t candidates = 0, holes = 0;
   };
+  bool InsideTracedBox(int u, int v) const;
   uint32_t Attend(const YuyvImage& image, const ColorLut& lut, const Prediction* prediction,
                   FrontEndStats& stats);
   Choice ChooseBall(const YuyvImage& image, const ColorLut& lut, const Prediction* prediction,
