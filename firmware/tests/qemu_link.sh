@@ -35,3 +35,19 @@ qemu_socket() {
     -kernel "$elf" < /dev/null > "$work/qemu.out" 2> "$work/qemu.err" &
   qpid=$!
 }
+
+#   capture_inputs BALLVISION SRC_SEQ WORK FIRST COUNT CALIB_JSON LUT
+# what the capture tests feed the board: exits 77 (skip) when the shared data is absent, else
+# writes COUNT raw pairs from FIRST to WORK/seq and the calibration blob to WORK/calib.bin
+# (WORK emptied first).
+capture_inputs() {
+  local bv=$1 src=$2 work=$3 first=$4 count=$5 calib=$6 lut=$7 f
+  for f in "$src/frames.csv" "$calib" "$lut"; do
+    [ -f "$f" ] || { echo "SKIP: $f not found"; exit 77; }
+  done
+  [ -x "$bv" ] || fail "host tool $bv not built: build the host preset first"
+  rm -rf "$work" && mkdir -p "$work"
+  "$bv" seq to-raw "$src" "$work/seq" --first "$first" --count "$count" > /dev/null ||
+    fail "seq to-raw failed"
+  "$bv" calib to-blob "$calib" "$work/calib.bin" > /dev/null || fail "calib to-blob failed"
+}

@@ -11,14 +11,7 @@ qemu=$1 elf=$2 bv=$3 src=$4 work=$5 first=$6 count=$7 calib=$8 lut=$9 py=${10}
 here=$(cd "$(dirname "$0")" && pwd)
 fail() { echo "FAIL: $*"; exit 1; }
 . "$here/qemu_link.sh"
-for f in "$src/frames.csv" "$calib" "$lut"; do
-  [ -f "$f" ] || { echo "SKIP: $f not found"; exit 77; }
-done
-[ -x "$bv" ] || fail "host tool $bv not built: build the host preset first"
-rm -rf "$work" && mkdir -p "$work"
-"$bv" seq to-raw "$src" "$work/seq" --first "$first" --count "$count" > /dev/null ||
-  fail "seq to-raw failed"
-"$bv" calib to-blob "$calib" "$work/calib.bin" > /dev/null || fail "calib to-blob failed"
+capture_inputs "$bv" "$src" "$work" "$first" "$count" "$calib" "$lut"
 PYTHONPATH="$here/../../tools/python" "$py" -c "
 import sys
 from ballvision_link import commands
