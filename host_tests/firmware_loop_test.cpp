@@ -13,6 +13,7 @@
 #include "core/protocol/protocol.h"
 #include "firmware/main_loop.h"
 #include "hal/common/blob_store.h"
+#include "host_tests/link_sim.h"
 #include "tools/ballvision/demo_scene.h"
 #include "tools/ballvision/run_common.h"
 // The firmware folder is only built for the target; the loop is compiled into this test.
@@ -130,36 +131,6 @@ class FakeClock : public hal::Clock {
   mutable uint64_t now_us_ = 0;
 };
 
-class FakeStorage : public hal::Storage {
- public:
-  static constexpr int kSlots = 4;
-  static constexpr size_t kSlotBytes = 80 * 1024;
-  FakeStorage() { std::memset(mem_, 0xFF, sizeof(mem_)); }
-  void Put(int slot, std::span<const uint8_t> bytes) {
-    std::memcpy(mem_[slot], bytes.data(), bytes.size());
-  }
-
- private:
-  int DoSlotCount() const override { return kSlots; }
-  size_t DoSlotSize() const override { return kSlotBytes; }
-  Status DoRead(int slot, size_t offset, std::span<uint8_t> out) override {
-    if (slot < 0 || slot >= kSlots || offset + out.size() > kSlotBytes) {
-      return Status(StatusCode::kOutOfRange, "range");
-    }
-    std::memcpy(out.data(), mem_[slot] + offset, out.size());
-    return Status();
-  }
-  Status DoErase(int slot) override {
-    std::memset(mem_[slot], 0xFF, kSlotBytes);
-    return Status();
-  }
-  Status DoWrite(int slot, size_t offset, std::span<const uint8_t> b) override {
-    std::memcpy(mem_[slot] + offset, b.data(), b.size());
-    return Status();
-  }
-  uint8_t mem_[kSlots][kSlotBytes];
-};
-
 struct Decoded {
   int balls = 0;
   int statuses = 0;
@@ -225,7 +196,7 @@ class MainLoopTest : public ::testing::Test {
   FakeCamera camera_;
   FakeUart<64 * 1024> uart_;
   FakeClock clock_;
-  FakeStorage storage_;
+  sim::MemStorage storage_;
   std::array<uint8_t, kBlobScratchBytes> scratch_{};
   std::unique_ptr<MainLoop> loop_;
   Status init_;

@@ -171,6 +171,9 @@ class MemStorage : public hal::Storage {
   static constexpr int kSlots = 4;
   static constexpr size_t kSlotBytes = 80 * 1024;
   MemStorage() : mem_(kSlots * kSlotBytes, 0xFF) {}
+  void Put(int slot, std::span<const uint8_t> bytes) {
+    std::memcpy(mem_.data() + slot * kSlotBytes, bytes.data(), bytes.size());
+  }
 
  private:
   int DoSlotCount() const override { return kSlots; }
