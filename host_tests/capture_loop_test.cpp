@@ -154,6 +154,31 @@ class CaptureLoopTest : public ::testing::Test {
       uart_.Advance(clock_.now);
     }
   }
+  // `frames` frame periods with one capture of `pairs` pairs requested at the start; the wire
+  // decoded.
+  Received RunCapture(uint32_t frames, uint16_t pairs, protocol::CaptureMode mode,
+                      bool with_calibration = false, uint8_t cameras = 3) {
+    Start(frames, with_calibration);
+    Capture(pairs, mode, cameras);
+    RunUntil(1000 + frames * kPeriodUs);
+    Drain();
+    return DecodeWire(uart_);
+  }
+  // A clean stream of `pairs` whole pairs and one "complete" end.
+  static ::testing::AssertionResult Complete(const Received& r, size_t pairs) {
+    if (r.decoder_errors != 0 || r.seq_gaps != 0) {
+      return ::testing::AssertionFailure()
+             << r.decoder_errors << " decoder errors, " << r.seq_gaps << " sequence gaps";
+    }
+    if (r.pairs.size() != pairs) {
+      return ::testing::AssertionFailure() << r.pairs.size() << " pairs, not " << pairs << " "
+                                           << (r.messages.empty() ? "" : r.messages[0]);
+    }
+    if (r.ends.size() != 1 || r.ends[0].reason != protocol::CaptureEndReason::kComplete) {
+      return ::testing::AssertionFailure() << r.ends.size() << " ends, not one 'complete'";
+    }
+    return ::testing::AssertionSuccess();
+  }
 
   SimClock clock_;
   PacedUart uart_;
@@ -167,16 +192,8 @@ class CaptureLoopTest : public ::testing::Test {
 };
 
 TEST_F(CaptureLoopTest, QuarterCaptureArrivesIntactWhileBallStatesKeepTheirRate) {
-  Start(90);  // 3 s
-  Capture(2, protocol::CaptureMode::kQuarter);
-  RunUntil(1000 + 90 * kPeriodUs);
-  Drain();
-  const Received r = DecodeWire(uart_);
-  EXPECT_EQ(r.decoder_errors, 0u);
-  EXPECT_EQ(r.seq_gaps, 0u);
-  ASSERT_EQ(r.pairs.size(), 2u) << (r.messages.empty() ? "" : r.messages[0]);
-  ASSERT_EQ(r.ends.size(), 1u);
-  EXPECT_EQ(r.ends[0].reason, protocol::CaptureEndReason::kComplete);
+  const Received r = RunCapture(90, 2, protocol::CaptureMode::kQuarter);  // 3 s
+  ASSERT_TRUE(Complete(r, 2));
   EXPECT_EQ(r.ends[0].pairs_sent, 2);
   for (const tools::CapturedPair& p : r.pairs) {
     const uint32_t src = p.frame.omni_sequence;
@@ -253,11 +270,7 @@ TEST_F(CaptureLoopTest, CameraThatEndsCutsTheCaptureShortAndSaysSo) {
 }
 
 TEST_F(CaptureLoopTest, StreamCutHalfWayKeepsTheCompletePairs) {
-  Start(120);
-  Capture(3, protocol::CaptureMode::kQuarter);
-  RunUntil(1000 + 120 * kPeriodUs);
-  Drain();
-  const Received whole = DecodeWire(uart_);
+  const Received whole = RunCapture(120, 3, protocol::CaptureMode::kQuarter);
   ASSERT_EQ(whole.pairs.size(), 3u);
   // Cut inside the second pair's images.
   size_t cut = 0;
@@ -285,16 +298,9 @@ TEST_F(CaptureLoopTest, StreamCutHalfWayKeepsTheCompletePairs) {
 // Mode 3: the samples of the scan tables the host builds from the same calibration, at their
 // pixels, equal to the source frame there (read from the pattern, not from the loop's tables).
 TEST_F(CaptureLoopTest, ScanlineCapturePutsEverySampleOfTheTablesAtItsPixel) {
-  Start(120, /*with_calibration=*/true);
-  Capture(3, protocol::CaptureMode::kScanlines);
-  RunUntil(1000 + 120 * kPeriodUs);
-  Drain();
-  const Received r = DecodeWire(uart_);
-  EXPECT_EQ(r.decoder_errors, 0u);
-  EXPECT_EQ(r.seq_gaps, 0u);
-  ASSERT_EQ(r.pairs.size(), 3u) << (r.messages.empty() ? "" : r.messages[0]);
-  ASSERT_EQ(r.ends.size(), 1u);
-  EXPECT_EQ(r.ends[0].reason, protocol::CaptureEndReason::kComplete);
+  const Received r =
+      RunCapture(120, 3, protocol::CaptureMode::kScanlines, /*with_calibration=*/true);
+  ASSERT_TRUE(Complete(r, 3));
   auto host = std::make_unique<tools::ScanTables>();
   std::string error;
   ASSERT_TRUE(host->Build(cli::MakeDemoCalibration(), error)) << error;
@@ -397,11 +403,8 @@ TEST_F(CaptureLoopTest, ScanlineCaptureOutlivesATableUploadButNotAMovedCalibrati
 }
 
 TEST_F(CaptureLoopTest, ScanlineStreamOfAnotherTableIsRefusedNamingBothCounts) {
-  Start(60, /*with_calibration=*/true);
-  Capture(1, protocol::CaptureMode::kScanlines, protocol::kCaptureOmni);
-  RunUntil(1000 + 60 * kPeriodUs);
-  Drain();
-  const Received r = DecodeWire(uart_);
+  const Received r = RunCapture(60, 1, protocol::CaptureMode::kScanlines,
+                                /*with_calibration=*/true, protocol::kCaptureOmni);
   ASSERT_EQ(r.pairs.size(), 1u);
   EXPECT_TRUE(r.pairs[0].image[1].empty());
   auto same = std::make_unique<tools::ScanTables>();
