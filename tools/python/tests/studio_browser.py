@@ -12,11 +12,14 @@ device's ball states and status counters; after --live-end (a shell command that
 device) it says the link ended, and the page still answers. Screenshots land in --out.
 Exit 0 when every check passed; each check prints one line."""
 import argparse
+import contextlib
 import csv
 import os
 import re
+import shutil
 import subprocess
 import sys
+import tempfile
 import time
 import urllib.request
 
@@ -79,14 +82,25 @@ def start_studio(a, source, extra=()):
     return p, m.group(1)
 
 
+@contextlib.contextmanager
 def browser():
+    # Chromium leaves its profile and singleton socket in TMPDIR after quit: a private one (short:
+    # the socket path must fit a sockaddr_un), removed afterwards, keeps /tmp clean.
+    tmp = tempfile.mkdtemp(prefix="bv-chromium-")
     o = webdriver.ChromeOptions()
     o.binary_location = "/usr/bin/chromium"
     for f in ("--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
               "--disable-background-networking", "--disable-component-update", "--disable-sync",
-              "--disable-dev-shm-usage", "--window-size=1700,1250"):
+              "--disable-dev-shm-usage", "--window-size=1700,1250",
+              f"--user-data-dir={os.path.join(tmp, 'profile')}"):
         o.add_argument(f)
-    return webdriver.Chrome(service=Service("/usr/bin/chromedriver"), options=o)
+    service = Service("/usr/bin/chromedriver", env=dict(os.environ, TMPDIR=tmp))
+    d = webdriver.Chrome(service=service, options=o)
+    try:
+        yield d
+    finally:
+        d.quit()
+        shutil.rmtree(tmp, ignore_errors=True)
 
 
 def run_states(a):
@@ -179,71 +193,69 @@ def teach_check(a, d, url, truth_rows):
 def sequence_mode(a):
     states, truth_rows = run_states(a), truth(a)
     studio, url = start_studio(a, a.seq, ("--lut", "builtin"))
-    d = browser()
     try:
-        d.get(url)
-        wait_for(lambda: image_ready(d, "omni") and image_ready(d, "persp"), 60,
-                 "both cameras' frames shown")
-        label = d.find_element(By.ID, "frame-label").text
-        check(label.startswith("frame "), f"frame label: {label!r}")
-        d.save_screenshot(os.path.join(a.out, "studio_sequence.png"))
-        top_view_checks(d, states)
-        d.save_screenshot(os.path.join(a.out, "studio_topview.png"))
-        teach_check(a, d, url, truth_rows)
-        d.save_screenshot(os.path.join(a.out, "studio_taught.png"))
-        d.find_element(By.ID, "open-path").send_keys(a.out)
-        d.find_element(By.ID, "open").click()
-        msg = wait_for(lambda: "not a captured sequence" in d.find_element(By.ID, "message").text
-                       and d.find_element(By.ID, "message").text, 30, "bad folder message")
-        check(bool(msg), f"a folder that is not a sequence: {msg!r}")
-        d.save_screenshot(os.path.join(a.out, "studio_bad_folder.png"))
+        with browser() as d:
+            d.get(url)
+            wait_for(lambda: image_ready(d, "omni") and image_ready(d, "persp"), 60,
+                     "both cameras' frames shown")
+            label = d.find_element(By.ID, "frame-label").text
+            check(label.startswith("frame "), f"frame label: {label!r}")
+            d.save_screenshot(os.path.join(a.out, "studio_sequence.png"))
+            top_view_checks(d, states)
+            d.save_screenshot(os.path.join(a.out, "studio_topview.png"))
+            teach_check(a, d, url, truth_rows)
+            d.save_screenshot(os.path.join(a.out, "studio_taught.png"))
+            d.find_element(By.ID, "open-path").send_keys(a.out)
+            d.find_element(By.ID, "open").click()
+            msg = wait_for(lambda: "not a captured sequence" in d.find_element(By.ID, "message").text
+                           and d.find_element(By.ID, "message").text, 30, "bad folder message")
+            check(bool(msg), f"a folder that is not a sequence: {msg!r}")
+            d.save_screenshot(os.path.join(a.out, "studio_bad_folder.png"))
     finally:
-        d.quit()
         studio.kill()
 
 
 def live_mode(a):
     studio, url = start_studio(a, a.live, ("--lut", a.live_lut) if a.live_lut else ())
-    d = browser()
     try:
-        d.get(url)
-        got = wait_for(lambda: d.execute_script(
-            "const l = state.data && state.data.live; return l && l.connected && "
-            "l.states.filter((s) => s.found).length > 5 && l.status ? l.states.length : 0;"), 60,
-            "live ball states and a status packet")
-        check(bool(got), f"live: {got} ball states from the device on the page")
-        wait_for(lambda: d.execute_script("return document.getElementById('topview').dataset"
-                                          ".ballPx;"), 10, "live ball in the top view")
-        rows = d.find_element(By.ID, "counters").text
-        check("frames processed" in rows and "link connected" in rows,
-              "live status counters: " + rows.replace("\n", "; ")[:160])
-        d.save_screenshot(os.path.join(a.out, "studio_live.png"))
-        if a.live_lut:
-            d.find_element(By.ID, "upload").click()
-            msg = wait_for(lambda: "uploaded" in d.find_element(By.ID, "message").text and
-                           d.find_element(By.ID, "message").text, 120, "upload acknowledged")
-            check(bool(msg), f"live: the table uploaded from the page: {msg!r}")
-            lut_id = wait_for(lambda: d.execute_script(
-                "const s = state.data.live.status; return s && s.lut_state === 0 && s.lut_id;"),
-                10, "status names the uploaded table")
-            check(bool(lut_id), f"live: the device's status reports colour table id {lut_id}")
-        d.find_element(By.ID, "grab").click()
-        grabbed = wait_for(lambda: image_ready(d, "omni") and image_ready(d, "persp") and
-                           d.execute_script("return state.data.sequence.dir;"), 90,
-                           "a grabbed pair shown")
-        check(bool(grabbed), f"live: grabbed one pair from the device and opened it: {grabbed}")
-        n = d.execute_script("return frames().length;")
-        check(n == 1, f"live: the grabbed sequence has {n} pair(s), 1 asked")
-        d.save_screenshot(os.path.join(a.out, "studio_live_grab.png"))
-        subprocess.run(a.live_end, shell=True)
-        msg = wait_for(lambda: "ended" in d.find_element(By.ID, "message").text and
-                       d.find_element(By.ID, "message").text, 30, "link-ended message")
-        check(bool(msg), f"live: the device went away: {msg!r}")
-        state = d.find_element(By.ID, "link-state").text
-        check(state == "link down", f"live: link state shown as {state!r}")
-        d.save_screenshot(os.path.join(a.out, "studio_link_down.png"))
+        with browser() as d:
+            d.get(url)
+            got = wait_for(lambda: d.execute_script(
+                "const l = state.data && state.data.live; return l && l.connected && "
+                "l.states.filter((s) => s.found).length > 5 && l.status ? l.states.length : 0;"), 60,
+                "live ball states and a status packet")
+            check(bool(got), f"live: {got} ball states from the device on the page")
+            wait_for(lambda: d.execute_script("return document.getElementById('topview').dataset"
+                                              ".ballPx;"), 10, "live ball in the top view")
+            rows = d.find_element(By.ID, "counters").text
+            check("frames processed" in rows and "link connected" in rows,
+                  "live status counters: " + rows.replace("\n", "; ")[:160])
+            d.save_screenshot(os.path.join(a.out, "studio_live.png"))
+            if a.live_lut:
+                d.find_element(By.ID, "upload").click()
+                msg = wait_for(lambda: "uploaded" in d.find_element(By.ID, "message").text and
+                               d.find_element(By.ID, "message").text, 120, "upload acknowledged")
+                check(bool(msg), f"live: the table uploaded from the page: {msg!r}")
+                lut_id = wait_for(lambda: d.execute_script(
+                    "const s = state.data.live.status; return s && s.lut_state === 0 && s.lut_id;"),
+                    10, "status names the uploaded table")
+                check(bool(lut_id), f"live: the device's status reports colour table id {lut_id}")
+            d.find_element(By.ID, "grab").click()
+            grabbed = wait_for(lambda: image_ready(d, "omni") and image_ready(d, "persp") and
+                               d.execute_script("return state.data.sequence.dir;"), 90,
+                               "a grabbed pair shown")
+            check(bool(grabbed), f"live: grabbed one pair from the device and opened it: {grabbed}")
+            n = d.execute_script("return frames().length;")
+            check(n == 1, f"live: the grabbed sequence has {n} pair(s), 1 asked")
+            d.save_screenshot(os.path.join(a.out, "studio_live_grab.png"))
+            subprocess.run(a.live_end, shell=True)
+            msg = wait_for(lambda: "ended" in d.find_element(By.ID, "message").text and
+                           d.find_element(By.ID, "message").text, 30, "link-ended message")
+            check(bool(msg), f"live: the device went away: {msg!r}")
+            state = d.find_element(By.ID, "link-state").text
+            check(state == "link down", f"live: link state shown as {state!r}")
+            d.save_screenshot(os.path.join(a.out, "studio_link_down.png"))
     finally:
-        d.quit()
         studio.kill()
 
 
