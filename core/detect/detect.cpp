@@ -211,8 +211,6 @@ Status BallFinder::Find(const YuyvImage& image, const ColorLut& lut, const Predi
   return Status::Ok();
 }
 
-// Normal samples around the prediction from the sum of four 12-bit uniforms (Irwin-Hall, no
-// libm); a seed at every ball-coloured one. Returns the pixels read.
 bool BallFinder::InsideTracedBox(int u, int v) const {
   for (const Region& r : regions_.regions()) {
     if (!r.hole && u > r.u_min && u < r.u_max && v > r.v_min && v < r.v_max) return true;
@@ -220,6 +218,8 @@ bool BallFinder::InsideTracedBox(int u, int v) const {
   return false;
 }
 
+// Normal samples around the prediction from the sum of four 12-bit uniforms (Irwin-Hall, no
+// libm); a seed at every ball-coloured one. Returns the pixels read.
 uint32_t BallFinder::Attend(const YuyvImage& image, const ColorLut& lut,
                             const Prediction* prediction, FrontEndStats& stats) {
   uint32_t attention_reads = 0;
