@@ -376,6 +376,21 @@ bool Pipeline::PredictAt(const Eigen::Vector3f& p) {
       if (OmniProject(calibration_->omni, q, u2, w2).ok()) {
         pred_omni_.radius_px = std::hypot(u2 - u, w2 - w);
       }
+      // The silhouette: the ball's angular radius from the mirror viewpoint, across the image
+      // radius (azimuth) and along it (elevation, offset downwards to stay below the horizon).
+      const Eigen::Vector3f los = p - Eigen::Vector3f(0.f, 0.f, calibration_->omni.viewpoint_z_m);
+      const Eigen::Vector3f e_t(-p.y() / d, p.x() / d, 0.f);
+      // e_t x los, written out (Eigen's cross lives in Eigen/Geometry, not used on the device).
+      Eigen::Vector3f e_v(e_t.y() * los.z(), -e_t.x() * los.z(),
+                          e_t.x() * los.y() - e_t.y() * los.x());
+      e_v.normalize();
+      if (e_v.z() > 0.f) e_v = -e_v;
+      float ut, wt, uv, wv;
+      if (OmniProject(calibration_->omni, p + e_t * r, ut, wt).ok() &&
+          OmniProject(calibration_->omni, p + e_v * r, uv, wv).ok()) {
+        pred_omni_.silhouette_radius_px =
+            std::sqrt(std::hypot(ut - u, wt - w) * std::hypot(uv - u, wv - w));
+      }
     }
   }
   if (calibration_->persp.valid && PerspProject(calibration_->persp, p, u, w).ok()) {
@@ -384,6 +399,7 @@ bool Pipeline::PredictAt(const Eigen::Vector3f& p) {
     pred_persp_.v_px = w;
     const float range = (p - calibration_->persp.t_robot_cam).norm();
     pred_persp_.radius_px = range > r ? calibration_->persp.fx * r / range : 0.f;
+    pred_persp_.silhouette_radius_px = pred_persp_.radius_px;
   }
   return pred_omni_.valid || pred_persp_.valid;
 }
@@ -623,8 +639,13 @@ void Pipeline::BuildObservation(const CameraRays& rays, BallState& out, BallObse
     omni_ray.origin = rays.omni.origin;
     omni_ray.dir = rays.omni.dir;
     omni_ray.camera = 0;
-    OmniRaySigma(cal.omni, out.omni, rays.omni, rays.omni_cut ? 0.5f * out.omni.radius_px : 0.f,
-                 config_, omni_ray);
+    // As in the perspective image (below): a region smaller than the predicted ball is the
+    // visible part of a partly hidden ball, its centroid off by up to the missing radius.
+    const float hidden_px =
+        pred_omni_.valid ? std::max(0.f, pred_omni_.silhouette_radius_px - out.omni.radius_px)
+                         : 0.f;
+    OmniRaySigma(cal.omni, out.omni, rays.omni,
+                 (rays.omni_cut ? 0.5f * out.omni.radius_px : 0.f) + hidden_px, config_, omni_ray);
   }
   if (have_p) {
     persp_ray.origin = rays.persp.origin;

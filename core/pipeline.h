@@ -85,6 +85,9 @@ struct PipelineStats {
 struct ImagePrediction {
   bool valid = false;
   float u_px = 0, v_px = 0, radius_px = 0;
+  // Radius of a disc with the silhouette's area (what BallDetection::radius_px measures); 0 when
+  // unknown. The omni radius_px above is the ball's footprint along the image radius, smaller.
+  float silhouette_radius_px = 0;
 };
 
 /// What went into the filter for the last frame (evaluation, annotation).

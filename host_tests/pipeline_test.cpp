@@ -77,6 +77,25 @@ TEST_F(PipelineTest, StaticBallIsTriangulatedWithinCentimetres) {
   }
 }
 
+// The omni prediction's silhouette radius is the region a whole ball makes there (a smaller region
+// is a partly hidden ball, whose ray sigma grows by the difference).
+TEST_F(PipelineTest, OmniPredictionHasTheBallsSilhouetteRadius) {
+  for (const Eigen::Vector3f& ball :
+       {Eigen::Vector3f(0.f, 1.5f, 0.11f), Eigen::Vector3f(1.5f, 2.f, 0.11f),
+        Eigen::Vector3f(-0.4f, 4.f, 0.21f)}) {
+    pipeline_->ResetTrack();
+    ASSERT_TRUE(Run(ball, 1000000, true, true).found);
+    ASSERT_TRUE(Run(ball, 1033333, true, true).found);
+    const ImagePrediction& pred = pipeline_->omni_prediction();
+    ASSERT_TRUE(pred.valid);
+    const BallFinder& finder = pipeline_->omni_finder();
+    ASSERT_GE(finder.chosen_region(), 0);
+    const float area = finder.regions().regions()[finder.chosen_region()].area_px;
+    const float measured = std::sqrt(area / 3.14159265f);
+    EXPECT_NEAR(pred.silhouette_radius_px, measured, 0.2f * measured) << ball.transpose();
+  }
+}
+
 // Paper IV-A: with the robot's field pose known, a ball-coloured region inside the field is
 // chosen over a larger one outside (behind the goal line), through the omni image-to-ground map.
 TEST_F(PipelineTest, InsideTheFieldIsFavouredOnceThePoseIsKnown) {

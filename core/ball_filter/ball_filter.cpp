@@ -153,7 +153,6 @@ void BallFilter::Reset() {
   seg_ = Segment{};
   fit_ = Fit{};
   b_ = std::clamp(cfg_.bounce_factor, 0.f, 1.f);
-  tangential_ = std::clamp(cfg_.bounce_tangential, 0.f, 1.f);
   b_samples_ = 0;
   b_pending_ = false;
 }
@@ -507,7 +506,7 @@ void BallFilter::Refit() {
 }
 
 // Bounce check before the newest observation (already pushed) is fitted: the current arc meets
-// the floor before it. The rebound (v_out = -b v_in vertically, tangential factor horizontally)
+// the floor before it. The rebound (Rebound: b vertically, friction on the slip horizontally)
 // starts a new segment with the contact as its prior, if the new frame fits it better than the
 // arc continued through the floor.
 bool BallFilter::TryBounce(uint64_t t_new_us) {
@@ -540,11 +539,13 @@ bool BallFilter::TryBounce(uint64_t t_new_us) {
   next.prior_us = tc;
   next.v_in_z = -vin.z();
   next.v_in_h = std::hypot(vin.x(), vin.y());
-  const float vz_out = b_ * next.v_in_z;
-  next.motion = vz_out < cfg_.min_bounce_vz_mps ? Motion::kRolling : Motion::kAir;
+  next.v_in_xy = vin.head<2>();
+  next.spin_in = seg_.spin;
+  Eigen::Vector3f vout;
+  next.grip = Rebound(vin, seg_.spin, vout, next.spin);
+  next.motion = vout.z() < cfg_.min_bounce_vz_mps ? Motion::kRolling : Motion::kAir;
   next.bounced = next.motion == Motion::kAir;
-  const Eigen::Vector3f vout(tangential_ * vin.x(), tangential_ * vin.y(),
-                             next.motion == Motion::kAir ? vz_out : 0.f);
+  if (next.motion == Motion::kRolling) vout.z() = 0.f;
   const Eigen::Vector3f pos_sig(std::sqrt(std::max(fit_.cov(0, 0), 0.f)) + 0.03f,
                                 std::sqrt(std::max(fit_.cov(1, 1), 0.f)) + 0.03f, 0.01f);
   for (int j = 0; j < 3; ++j) {
@@ -552,8 +553,12 @@ bool BallFilter::TryBounce(uint64_t t_new_us) {
     next.prior_mean[3 + j] = vout(j);
     next.prior_sigma[j] = pos_sig(j);
   }
-  next.prior_sigma[3] = next.prior_sigma[4] = 0.3f * next.v_in_h + 0.2f;
-  next.prior_sigma[5] = 0.25f * next.v_in_z + 0.2f;
+  // The rebound is known as well as what went into it: the spin (none assumed after a kick) and
+  // b (the configured value until a rebound has been fitted).
+  next.spin_known = next.grip || seg_.spin_known;
+  next.prior_sigma[3] = next.prior_sigma[4] =
+      seg_.spin_known ? 0.1f * next.v_in_h + 0.1f : 0.3f * next.v_in_h + 0.2f;
+  next.prior_sigma[5] = b_samples_ > 0 ? 0.12f * next.v_in_z + 0.1f : 0.25f * next.v_in_z + 0.2f;
   // Compare on the newest frame: old arc continued vs the rebound's prior.
   const Stored& s = Newest(0);
   const float chi_old = ObsChi2(s, seg_, fit_.x, t_ref_us_);
@@ -828,12 +833,40 @@ void BallFilter::EstimateRestitution(int seg_frames) {
     const float n = static_cast<float>(b_samples_);
     b_ = (b_ * n + b_est) / (n + 1.f);
     ++b_samples_;
-    if (seg_.v_in_h > 0.5f) {
-      const float t_est = std::hypot(fit_.x(3), fit_.x(4)) / seg_.v_in_h;
-      if (t_est > 0.3f && t_est <= 1.05f) tangential_ = 0.5f * (tangential_ + t_est);
-    }
+    // The spin the rebound carries to the next contact, from its fitted horizontal take-off
+    // velocity (drag undone to first order): a contact that gripped leaves the ball rolling
+    // (spin = that velocity, whatever spin it came in with); a sliding one gave it the friction
+    // impulse, the change in horizontal velocity, over the inertia ratio.
+    const Eigen::Vector2f v_h = fit_.x.segment<2>(3);
+    const Eigen::Vector2f v_out = v_h * (1.f + cfg_.drag_per_m * fit_.x.tail<3>().norm() * since);
+    seg_.spin_known = true;
+    seg_.spin = seg_.grip
+                    ? v_out
+                    : Eigen::Vector2f(seg_.spin_in + (seg_.v_in_xy - v_out) /
+                                                         std::max(cfg_.ball_inertia_ratio, 0.1f));
   }
   b_pending_ = false;
+}
+
+// Vertically v_out = b |v_in|. Horizontally the contact point slips at v - spin; friction
+// (impulse up to mu (1 + b) m |vz|) cuts the slip, at most until the ball rolls: with
+// I = alpha m r^2 that takes the velocity change alpha / (1 + alpha) of the slip, and leaves
+// v_out = spin_out = (v + alpha spin) / (1 + alpha) (3/5 of the velocity for a thin shell
+// without spin, all of it for a ball that already rolls).
+bool BallFilter::Rebound(const Eigen::Vector3f& v_in, const Eigen::Vector2f& spin_in,
+                         Eigen::Vector3f& v_out, Eigen::Vector2f& spin_out) const {
+  const float alpha = std::max(cfg_.ball_inertia_ratio, 0.1f);
+  const Eigen::Vector2f slip = v_in.head<2>() - spin_in;
+  const float s = slip.norm();
+  const float dv_roll = s * alpha / (1.f + alpha);
+  const float dv_max = std::max(cfg_.bounce_friction_mu, 0.f) * (1.f + b_) * std::fabs(v_in.z());
+  const bool grip = dv_roll <= dv_max;
+  const Eigen::Vector2f dv =
+      s > 1e-6f ? Eigen::Vector2f(slip * (std::min(dv_roll, dv_max) / s)) : Eigen::Vector2f::Zero();
+  v_out.head<2>() = v_in.head<2>() - dv;
+  v_out.z() = b_ * std::fabs(v_in.z());
+  spin_out = grip ? Eigen::Vector2f(v_out.head<2>()) : Eigen::Vector2f(spin_in + dv / alpha);
+  return grip;
 }
 
 // Forward in time from the reference state, piecewise closed form: arcs (gravity, drag at the
@@ -846,6 +879,7 @@ void BallFilter::Evolve(float dt_s, Eigen::Vector3f& p, Eigen::Vector3f& v, Ball
   v = fit_.x.tail<3>();
   Motion motion = seg_.motion;
   bool bounced = seg_.bounced;
+  Eigen::Vector2f spin = seg_.spin;
   const float r = cfg_.ball_radius_m, g = cfg_.gravity_mps2;
   float t = 0;
   for (int k = 0; k <= kMaxContacts; ++k) {
@@ -891,14 +925,14 @@ void BallFilter::Evolve(float dt_s, Eigen::Vector3f& p, Eigen::Vector3f& v, Ball
         cy[n_contacts] = p.y();
       }
       ++n_contacts;
-      const float vz_out = b_ * std::fabs(v.z());
-      v.x() *= tangential_;
-      v.y() *= tangential_;
-      if (vz_out < cfg_.min_bounce_vz_mps) {
+      Eigen::Vector3f v_out;
+      const Eigen::Vector2f spin_in = spin;
+      Rebound(v, spin_in, v_out, spin);
+      v = v_out;
+      if (v.z() < cfg_.min_bounce_vz_mps) {
         motion = Motion::kRolling;
         v.z() = 0;
       } else {
-        v.z() = vz_out;
         bounced = true;
       }
       continue;

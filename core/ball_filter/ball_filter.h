@@ -24,9 +24,12 @@ struct BallFilterConfig {
   float bounce_factor = 0.7f;          // b, initial value (vertical restitution)
   bool estimate_bounce_factor = true;  // refine b from each observed bounce
   float min_bounce_factor = 0.3f, max_bounce_factor = 0.95f;
-  float bounce_tangential = 0.8f;  // horizontal speed kept at a contact (friction), initial
-  float min_bounce_vz_mps = 0.5f;  // a rebound slower than this ends in rolling
-  int max_window = 12;             // frames in the fit, 4..kMaxWindow
+  // A contact's horizontal impulse: Coulomb friction on the contact point's slip, up to the
+  // impulse that makes the ball roll. An inflated ball is a thin shell: I = 2/3 m r^2.
+  float bounce_friction_mu = 0.5f;
+  float ball_inertia_ratio = 2.f / 3.f;  // I / (m r^2)
+  float min_bounce_vz_mps = 0.5f;        // a rebound slower than this ends in rolling
+  int max_window = 12;                   // frames in the fit, 4..kMaxWindow
   // A ray further from the prediction than gate_min_m + gate_sigmas * (prediction and ray sigma)
   // + outlier_growth_mps * time since the last frame is rejected; two such frames that agree with
   // each other within outlier_error_m start a new track.
@@ -120,6 +123,13 @@ class BallFilter {
     float prior_sigma[6] = {};
     float v_in_z = 0;  // vertical speed into the contact (for estimating b)
     float v_in_h = 0;  // horizontal speed into the contact
+    Eigen::Vector2f v_in_xy = Eigen::Vector2f::Zero();
+    // The ball's spin as the horizontal speed of its surface at the bottom (a ball rolling without
+    // slip: its velocity), constant in flight; unknown (a kick) counts as none. spin_in and grip
+    // describe the contact that started the segment.
+    Eigen::Vector2f spin = Eigen::Vector2f::Zero(), spin_in = Eigen::Vector2f::Zero();
+    bool grip = false;        // the contact made the ball roll (friction did not saturate)
+    bool spin_known = false;  // spin follows from a contact that gripped or from a fitted rebound
   };
   struct Fit {
     bool ok = false;
@@ -161,6 +171,9 @@ class BallFilter {
   bool RestartSegment(int seg_frames);
   void CheckAtRest(int seg_frames);
   void EstimateRestitution(int seg_frames);
+  // A floor contact: vertical rebound b |vz|, friction on the slip; returns whether it gripped.
+  bool Rebound(const Eigen::Vector3f& v_in, const Eigen::Vector2f& spin_in, Eigen::Vector3f& v_out,
+               Eigen::Vector2f& spin_out) const;
   uint16_t UpdateObservable();  // sets observable_; returns kFlagUnobservable or 0
   void Evolve(float dt_s, Eigen::Vector3f& p, Eigen::Vector3f& v, BallMode& mode,
               uint64_t* contacts, float* cx, float* cy, int max_contacts, int& n_contacts) const;
@@ -176,7 +189,7 @@ class BallFilter {
   uint64_t t_ref_us_ = 0;   // time of the estimate = newest accepted observation
   Segment seg_;
   Fit fit_;
-  float b_ = 0.7f, tangential_ = 0.8f;
+  float b_ = 0.7f;
   int b_samples_ = 0;
   bool b_pending_ = false;
   int off_count_ = 0;  // consecutive observations far from the model (segment restart)
