@@ -757,9 +757,13 @@ bool BallFilter::SwitchRollingFlying(int seg_frames) {
       fit_ = fo;
       return true;
     }
-  } else if (seg_frames >= 4 && fo.chi2 <= fit_.chi2 + 2.f &&
-             std::fabs(fit_.x(5)) < cfg_.min_bounce_vz_mps &&
-             fit_.x(2) < r + cfg_.roll_tolerance_m) {
+  }
+  // A rebound's apex is a low, slow flight too, and one camera's rays fit the floor nearly as
+  // well (sliding ~20 cm along them at 3 m): the contacts say when it stops bouncing, so only a
+  // clearly better floor fit ends it early.
+  const float roll_gain = seg_.bounced ? -cfg_.model_switch_chi2 : 2.f;
+  if (other.motion == Motion::kRolling && seg_frames >= 4 && fo.chi2 <= fit_.chi2 + roll_gain &&
+      std::fabs(fit_.x(5)) < cfg_.min_bounce_vz_mps && fit_.x(2) < r + cfg_.roll_tolerance_m) {
     seg_ = other;
     fit_ = fo;
     b_pending_ = false;
