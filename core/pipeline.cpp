@@ -592,17 +592,23 @@ void Pipeline::PerspRayNoiseAndRange(const BallDetection& det, const Ray& ray, b
                                            static_cast<float>(kCircleSectors - det.arc_sectors) /
                                            static_cast<float>(kCircleSectors)
                               : 0.f;
+  // A ball cut by the image border whose arc gave a circle has that circle's centre and size.
+  const bool cut_centroid = cut && !circle;
   const float s = (config_.persp_sigma_px + config_.persp_sigma_per_radius * det.radius_px +
-                   (cut ? 0.5f * det.radius_px : 0.f) + hidden_px + arc_px) /
+                   (cut_centroid ? 0.5f * det.radius_px : 0.f) + hidden_px + arc_px) /
                   std::max(cal.persp.fx, 1.0f);
   out.sigma_h_rad = out.sigma_v_rad = s;
-  if (det.radius_px > 0.5f && !cut) {
+  if (det.radius_px > 0.5f && !cut_centroid) {
     auto rim = PerspPixelToRay(cal.persp, det.u_px + det.radius_px, det.v_px);
     if (rim.ok()) {
       auto q = PointFromApparentSize(ray, AngleBetween(ray.dir, rim->dir), cal.ball_radius_m);
       if (q.ok()) {
         out.range_m = ClosestDepthOnRay(ray, *q);
-        out.range_sigma_m = out.range_m * (config_.size_range_rel + 0.7f / det.radius_px);
+        // A cut ball's radius is as good as the part of its arc inside the image that was seen.
+        const float arc = cut ? static_cast<float>(kCircleSectors) /
+                                    static_cast<float>(std::max<int>(det.arc_sectors, 1))
+                              : 1.f;
+        out.range_sigma_m = out.range_m * (config_.size_range_rel + 0.7f / det.radius_px) * arc;
       }
     }
   }

@@ -378,6 +378,30 @@ TEST(ContourCircleTest, AHalfHiddenBallWithAConeOnTopGivesItsCentreWhenTheRadius
   EXPECT_NEAR(fit.radius_px, rad, 0.8f);
 }
 
+// A ball within a metre of the perspective camera is cut by the image border: a cap of its circle
+// (~115 deg) is left, whose centroid lies 70 px inside. With the image known, the arc inside it
+// gives the circle; a box on the border gives none.
+TEST(ContourCircleTest, ABallCutByTheImageBorderGivesItsCircle) {
+  CircleCase c;
+  const float cu = 318.3f, cv = 541.2f, rad = 115.0f;
+  c.Disc(cu, cv, rad);
+  c.f.Draw([](int u, int v) { return u >= 40 && u < 100 && v >= 440; });
+  const Region& r = c.Trace(318, 470);
+  ASSERT_GT(std::fabs(r.cv_px - cv), 60.0f);
+  c.Trace(60, 470);
+  CircleSearch s;
+  s.r_max_px = 200.0f;
+  CircleFit fit;
+  EXPECT_FALSE(c.rs->FitCircle(0, s, fit));  // 5 of 16 sectors: not a circle without the border
+  s.image_width = 640;
+  s.image_height = 480;
+  ASSERT_TRUE(c.rs->FitCircle(0, s, fit));
+  EXPECT_NEAR(fit.cu_px, cu, 1.0f);
+  EXPECT_NEAR(fit.cv_px, cv, 1.5f);
+  EXPECT_NEAR(fit.radius_px, rad, 1.5f);
+  EXPECT_FALSE(c.rs->FitCircle(1, s, fit));
+}
+
 // Two balls touching: the centre constraint picks the one predicted.
 TEST(ContourCircleTest, TwoTouchingBallsThePredictedOneIsFitted) {
   CircleCase c;

@@ -295,12 +295,32 @@ Ring RingOf(float r) {
   return {lo * lo, (r + tol) * (r + tol)};
 }
 
+// Outline points on the image border (relative to the region's start pixel) are where the image
+// cut the region, not its edge: no circle is fitted to them.
+struct ImageBorder {
+  bool known = false;
+  int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+  bool Holds(int x, int y) const { return known && (x <= x0 || y <= y0 || x >= x1 || y >= y1); }
+};
+ImageBorder BorderOf(const Region& reg, const CircleSearch& search) {
+  ImageBorder b;
+  if (search.image_width <= 0 || search.image_height <= 0) return b;
+  b.known = true;
+  b.x0 = -reg.start_u;
+  b.y0 = -reg.start_v;
+  b.x1 = search.image_width - 1 - reg.start_u;
+  b.y1 = search.image_height - 1 - reg.start_v;
+  return b;
+}
+
 // The outline's points (relative to the start pixel) near the circle (ox, oy, r): Kasa's
 // algebraic fit over them. Coordinates relative to the old centre keep the sums well scaled.
-bool RefineCircle(const uint8_t* codes, uint32_t len, float& ox, float& oy, float& r) {
+bool RefineCircle(const uint8_t* codes, uint32_t len, const ImageBorder& border, float& ox,
+                  float& oy, float& r) {
   const Ring ring = RingOf(r);
   float sxx = 0, sxy = 0, syy = 0, sx = 0, sy = 0, sxz = 0, syz = 0, sz = 0, n = 0;
   ForEachOutlinePoint(codes, len, [&](uint32_t, int x, int y) {
+    if (border.Holds(x, y)) return;
     const float px = static_cast<float>(x) - ox, py = static_cast<float>(y) - oy;
     const float z = px * px + py * py;
     if (!ring.Holds(z)) return;
@@ -342,19 +362,24 @@ bool RefineCircle(const uint8_t* codes, uint32_t len, float& ox, float& oy, floa
 struct OutlineSamples {
   int16_t x[kCircleSamples], y[kCircleSamples];
   int n = 0;
+  int spaced = 0;  // samples drawn, border ones included (the sampling density)
 };
-void SampleOutline(const uint8_t* codes, uint32_t len, OutlineSamples& s) {
-  s.n = static_cast<int>(std::min<uint32_t>(len, kCircleSamples));
-  const int n = s.n;
-  int taken = 0;
+void SampleOutline(const uint8_t* codes, uint32_t len, const ImageBorder& border,
+                   OutlineSamples& s) {
+  const int n = static_cast<int>(std::min<uint32_t>(len, kCircleSamples));
+  int taken = 0, kept = 0;
   ForEachOutlinePoint(codes, len, [&](uint32_t j, int x, int y) {
     if (taken < n &&
         static_cast<uint64_t>(j) * static_cast<uint32_t>(n) >= static_cast<uint64_t>(taken) * len) {
-      s.x[taken] = static_cast<int16_t>(x);
-      s.y[taken] = static_cast<int16_t>(y);
       ++taken;
+      if (border.Holds(x, y)) return;
+      s.x[kept] = static_cast<int16_t>(x);
+      s.y[kept] = static_cast<int16_t>(y);
+      ++kept;
     }
   });
+  s.n = kept;
+  s.spaced = taken;
 }
 
 // Which circles a search allows, relative to the region's start pixel: the radius range of the
@@ -462,18 +487,48 @@ ScoredCircle BestThreePointCircle(const OutlineSamples& s, const CircleWindow& w
 
 // Support of the circle (bx, by, br): the sectors around the centre that hold outline points on
 // it (mask), and how many points do (on).
-uint32_t SupportSectors(const uint8_t* codes, uint32_t len, float bx, float by, float br,
-                        uint32_t& on) {
+uint32_t SupportSectors(const uint8_t* codes, uint32_t len, const ImageBorder& border, float bx,
+                        float by, float br, uint32_t& on) {
   const Ring ring = RingOf(br);
   uint32_t mask = 0;
   on = 0;
   ForEachOutlinePoint(codes, len, [&](uint32_t, int x, int y) {
+    if (border.Holds(x, y)) return;
     const float dx = static_cast<float>(x) - bx, dy = static_cast<float>(y) - by;
     if (!ring.Holds(dx * dx + dy * dy)) return;
     mask |= 1u << Sector(dx, dy);
     ++on;
   });
   return mask;
+}
+
+// The sectors whose middle lies inside the image (a margin of one pixel), for a circle in image
+// coordinates; all of them when the image is unknown. The middle direction inverts Sector's
+// diamond angle.
+int SectorsInside(const CircleSearch& search, float cu, float cv, float r) {
+  if (search.image_width <= 0 || search.image_height <= 0) return kCircleSectors;
+  const float w = static_cast<float>(search.image_width) - 1.5f;
+  const float h = static_cast<float>(search.image_height) - 1.5f;
+  int inside = 0;
+  for (int k = 0; k < kCircleSectors; ++k) {
+    const float a = (static_cast<float>(k) + 0.5f) * 4.0f / static_cast<float>(kCircleSectors);
+    const int q = static_cast<int>(a);
+    const float f = a - static_cast<float>(q);
+    const float dx = q == 0 ? 1.0f - f : q == 1 ? -f : q == 2 ? f - 1.0f : f;
+    const float dy = q == 0 ? f : q == 1 ? 1.0f - f : q == 2 ? -f : f - 1.0f;
+    const float n = std::hypot(dx, dy);
+    const float u = cu + r * dx / n, v = cv + r * dy / n;
+    inside += u >= 0.5f && v >= 0.5f && u <= w && v <= h;
+  }
+  return inside;
+}
+
+// The arc a fit must span: min_sectors, or for a circle cut by the image border the sectors
+// inside it but one (at least kMinCutSectors).
+int NeededSectors(const CircleSearch& search, float cu, float cv, float r) {
+  const int inside = SectorsInside(search, cu, cv, r);
+  if (inside >= kCircleSectors) return search.min_sectors;
+  return std::min(search.min_sectors, std::max(kMinCutSectors, inside - 1));
 }
 }  // namespace
 
@@ -484,32 +539,36 @@ bool RegionSetBase::FitCircle(size_t i, const CircleSearch& search, CircleFit& o
   const uint32_t len = reg.chain_length;
   if (reg.hole || len < 12) return false;
   const uint8_t* codes = chain_ + reg.chain_offset;
+  const ImageBorder border = BorderOf(reg, search);
   OutlineSamples samples;
-  SampleOutline(codes, len, samples);
+  SampleOutline(codes, len, border, samples);
   const int n = samples.n;
   const CircleWindow window = WindowOf(reg, search);
   const ScoredCircle best =
       BestThreePointCircle(samples, window, HypothesisSpacing(search, len, n));
   float bx = best.x, by = best.y, br = best.r;
-  // The best run must be most of the samples an arc of min_sectors would hold (a chain step is
-  // ~1.1 px); otherwise no refinement is spent on it.
-  const float arc_samples = 6.2832f * br * static_cast<float>(search.min_sectors) /
-                            static_cast<float>(kCircleSectors) * static_cast<float>(n) /
-                            (1.1f * static_cast<float>(len));
+  const float su = static_cast<float>(reg.start_u), sv = static_cast<float>(reg.start_v);
+  // The best run must be most of the samples the arc needed would hold (a chain step is ~1.1 px);
+  // otherwise no refinement is spent on it.
+  const float arc_samples = 6.2832f * br *
+                            static_cast<float>(NeededSectors(search, su + bx, sv + by, br)) /
+                            static_cast<float>(kCircleSectors) *
+                            static_cast<float>(samples.spaced) / (1.1f * static_cast<float>(len));
   if (best.score < 4 || static_cast<float>(best.score) < 0.6f * arc_samples) return false;
   for (int it = 0; it < 2; ++it) {
-    if (!RefineCircle(codes, len, bx, by, br)) return false;
+    if (!RefineCircle(codes, len, border, bx, by, br)) return false;
   }
   if (br < window.c_min || br > window.c_max || window.TooFar(bx, by)) return false;
   uint32_t on = 0;
-  const uint32_t mask = SupportSectors(codes, len, bx, by, br, on);
-  out.cu_px = static_cast<float>(reg.start_u) + bx;
-  out.cv_px = static_cast<float>(reg.start_v) + by;
+  const uint32_t mask = SupportSectors(codes, len, border, bx, by, br, on);
+  out.cu_px = su + bx;
+  out.cv_px = sv + by;
   out.radius_px = br + 0.5f;
   out.sectors = LongestRun(mask);
+  out.border_sectors = kCircleSectors - SectorsInside(search, out.cu_px, out.cv_px, br);
   out.on_circle = static_cast<float>(on) / static_cast<float>(len);
   // A short arc is no evidence of a circle: any ragged speck curves like one over ten pixels.
-  return out.sectors >= search.min_sectors && on >= kMinArcPoints;
+  return out.sectors >= NeededSectors(search, out.cu_px, out.cv_px, br) && on >= kMinArcPoints;
 }
 
 void RegionSetBase::SetCircle(size_t i, const CircleFit& fit) {
@@ -518,7 +577,7 @@ void RegionSetBase::SetCircle(size_t i, const CircleFit& fit) {
   r.cu_px = fit.cu_px;
   r.cv_px = fit.cv_px;
   r.area_px = 3.14159265f * fit.radius_px * fit.radius_px;
-  r.arc_sectors = static_cast<uint8_t>(fit.sectors);
+  r.arc_sectors = static_cast<uint8_t>(std::min(kCircleSectors, fit.sectors + fit.border_sectors));
 }
 
 }  // namespace bv

@@ -20,7 +20,8 @@ struct Region {
   int16_t u_min = 0, v_min = 0, u_max = 0, v_max = 0;  // bbox, inclusive
   bool hole = false;                                   // contour of a hole inside another region
   // 0: centre, area and radius are the region's own. Otherwise they are the circle fitted to the
-  // region's outline (SetCircle), supported in this many of 16 sectors around its centre.
+  // region's outline (SetCircle), supported in this many of 16 sectors around its centre, those
+  // beyond the image border counted (a cut ball's outline ends there).
   uint8_t arc_sectors = 0;
   uint16_t chain_offset = 0;  // codes in the set's chain pool
   uint16_t chain_length = 0;
@@ -48,9 +49,10 @@ inline constexpr float kHullMinArea = 8.0f;
 /// and radius where the region's centroid does not.
 struct CircleFit {
   float cu_px = 0, cv_px = 0;
-  float radius_px = 0;  // of the ball's pixels (boundary pixel centres + 0.5)
-  int sectors = 0;      // longest run of the 16 sectors around it with outline points on it
-  float on_circle = 0;  // fraction of the outline's points on the circle
+  float radius_px = 0;     // of the ball's pixels (boundary pixel centres + 0.5)
+  int sectors = 0;         // longest run of the 16 sectors around it with outline points on it
+  int border_sectors = 0;  // sectors beyond the image border (a cut ball has no outline there)
+  float on_circle = 0;     // fraction of the outline's points on the circle
 };
 inline constexpr int kCircleSectors = 16;
 inline constexpr uint32_t kMinArcPoints = 16;  // outline points on a fitted circle, at least
@@ -63,7 +65,11 @@ struct CircleSearch {
   // When max_centre_px > 0: only circles centred within it of (cu_px, cv_px), the predicted ball
   // (a ball merged with a cone also has the cone's outline, which some circle fits too).
   float cu_px = 0, cv_px = 0, max_centre_px = 0;
+  // The image (0: unknown). A circle cut by its border has no outline beyond it: the arc then
+  // needs to span only the sectors inside (at least kMinCutSectors), not min_sectors.
+  int image_width = 0, image_height = 0;
 };
+inline constexpr int kMinCutSectors = 4;
 
 /// Freeman directions: 0 = +u, 2 = -v (up), 4 = -u, 6 = +v; odd codes are diagonals.
 inline constexpr int kChainDu[8] = {1, 1, 0, -1, -1, -1, 0, 1};

@@ -95,7 +95,7 @@ size_t BallFinder::Candidates(std::span<BallDetection> out) const {
 // the ball's own centre and radius, where the centroid is pulled towards whatever it merged with
 // or away from what hides it. A nearly whole circle on a region no larger keeps the centroid (it
 // averages every pixel).
-void BallFinder::FitCircles(const Prediction* prediction) {
+void BallFinder::FitCircles(const Prediction* prediction, int image_width, int image_height) {
   constexpr float kCleanHull = 0.9f, kCleanWidth = 0.85f;
   constexpr int kWholeSectors = 14;
   // Below this an outline has too few pixels to show a circle's curvature (a speck, a far ball).
@@ -117,13 +117,18 @@ void BallFinder::FitCircles(const Prediction* prediction) {
     search.r_min_px = kMinCircleRadiusPx;
     search.min_sectors = config_.min_arc_sectors;
   }
+  search.image_width = image_width;
+  search.image_height = image_height;
   const float reach = search.max_centre_px + search.r_max_px + 2.0f;
   int fits = 0;
   const auto regions = regions_.regions();
   for (size_t i = 0; i < regions.size() && fits < kMaxCircleFits; ++i) {
     const Region& r = regions[i];
+    // Cut by the image border: the centroid is the visible cap's, however clean its outline.
+    const bool at_border =
+        r.u_min <= 0 || r.v_min <= 0 || r.u_max >= image_width - 1 || r.v_max >= image_height - 1;
     if (r.hole || r.area_px < config_.min_area_px ||
-        (r.hull_roundness >= kCleanHull && r.width_ratio >= kCleanWidth)) {
+        (!at_border && r.hull_roundness >= kCleanHull && r.width_ratio >= kCleanWidth)) {
       continue;
     }
     // Nowhere near the predicted ball: no circle there could be it.
@@ -135,8 +140,10 @@ void BallFinder::FitCircles(const Prediction* prediction) {
     }
     ++fits;
     if (!sized) {
-      search.r_max_px =
-          0.5f * static_cast<float>(std::max(r.u_max - r.u_min, r.v_max - r.v_min)) + 1.0f;
+      // A cut ball's circle is wider than what is left of it (up to its chord: a 60 deg cap).
+      search.r_max_px = (at_border ? 1.0f : 0.5f) *
+                            static_cast<float>(std::max(r.u_max - r.u_min, r.v_max - r.v_min)) +
+                        1.0f;
     }
     CircleFit fit;
     if (!regions_.FitCircle(i, search, fit)) continue;
@@ -197,7 +204,7 @@ Status BallFinder::Find(const YuyvImage& image, const ColorLut& lut, const Predi
         in_run = ball;
       });
   stats.scan_pixels = scan_->pixel_count();
-  if (config_.fit_circles) FitCircles(prediction);
+  if (config_.fit_circles) FitCircles(prediction, image.width, image.height);
   // 3. Ball choice.
   const Choice choice = ChooseBall(image, lut, prediction, stats);
   stats.candidates = choice.candidates;

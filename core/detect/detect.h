@@ -111,7 +111,7 @@ class BallFinder {
 
  private:
   bool Passes(const Region& r, bool& in_field) const;
-  void FitCircles(const Prediction* prediction);
+  void FitCircles(const Prediction* prediction, int image_width, int image_height);
   uint32_t NextRandom();
   void Seed(const YuyvImage& image, const ColorLut& lut, int u, int v, FrontEndStats& stats);
   // Find()'s steps, in its order.
