@@ -1,6 +1,7 @@
 // `ballvision run`, `eval` and `demo`: the full pipeline on captured sequences, its error
 // tables against truth.csv, and a self-contained demonstration.
 #include <algorithm>
+#include <array>
 #include <cerrno>
 #include <chrono>
 #include <cmath>
@@ -375,10 +376,102 @@ Prediction SamplePrediction(const BallFilter& filter, uint64_t from_us, int step
   return out;
 }
 
+// The omni pixel whose (extended) ray points at p: OmniProject below the distance map's reach,
+// otherwise Newton on the ray's direction from the pixel of a nearer point in that direction
+// (a raised ball far out is seen beyond the map).
+bool OmniPixelOf(const OmniCalibration& cal, const Eigen::Vector3f& p, float& u, float& v) {
+  if (OmniProject(cal, p, u, v).ok()) return true;
+  const Eigen::Vector3f o(0.f, 0.f, cal.viewpoint_z_m);
+  const Eigen::Vector3f want = (p - o).normalized();
+  bool start = false;
+  for (float f = 0.9f; f > 0.1f && !start; f -= 0.1f) {
+    start = OmniProject(cal, Eigen::Vector3f(p.x() * f, p.y() * f, 0.1f), u, v).ok();
+  }
+  if (!start) return false;
+  const auto err = [&](float uu, float vv, Eigen::Vector2f& e) {
+    auto r = OmniPixelToRayExtended(cal, uu, vv);
+    if (!r.ok()) return false;
+    const Eigen::Vector3f d = r->dir - want;
+    e = Eigen::Vector2f(d.x() * want.y() - d.y() * want.x(), d.z());  // across, up
+    return true;
+  };
+  for (int it = 0; it < 12; ++it) {
+    Eigen::Vector2f e, eu, ev;
+    if (!err(u, v, e) || !err(u + 0.5f, v, eu) || !err(u, v + 0.5f, ev)) return false;
+    if (e.norm() < 1e-6f) return true;
+    const Eigen::Vector2f ju = (eu - e) / 0.5f, jv = (ev - e) / 0.5f;  // Jacobian columns
+    const float det = ju.x() * jv.y() - jv.x() * ju.y();
+    if (!(std::fabs(det) > 1e-12f)) return false;
+    const Eigen::Vector2f step((jv.y() * e.x() - jv.x() * e.y()) / det,
+                               (ju.x() * e.y() - ju.y() * e.x()) / det);
+    u -= std::clamp(step.x(), -20.f, 20.f);
+    v -= std::clamp(step.y(), -20.f, 20.f);
+  }
+  Eigen::Vector2f e;
+  return err(u, v, e) && e.norm() < 1e-4f;
+}
+
+// The rig's geometric limit at p: how far the two-ray midpoint moves when one camera's image of
+// the centre moves by the pixel grid's own uncertainty (rounding to the nearest pixel: 1/sqrt(12)
+// px), in u or in v; the four moves added in quadrature. NaN where a camera does not see p.
+double GeometricLimitM(const RigCalibration& cal, const Eigen::Vector3f& p) {
+  float uo, vo, up, vp;
+  if (!OmniPixelOf(cal.omni, p, uo, vo) || !PerspProject(cal.persp, p, up, vp).ok()) return NAN;
+  const float h = 0.2887f;
+  const auto rays = [&](float du_o, float dv_o, float du_p, float dv_p) -> Result<Triangulation> {
+    auto o = OmniPixelToRayExtended(cal.omni, uo + du_o, vo + dv_o);
+    auto q = PerspPixelToRay(cal.persp, up + du_p, vp + dv_p);
+    if (!o.ok() || !q.ok()) return Status(StatusCode::kOutOfRange, "no ray");
+    return TriangulateRays(*q, *o);
+  };
+  const auto base = rays(0, 0, 0, 0);
+  if (!base.ok()) return NAN;
+  double sum = 0;
+  for (const auto& [du_o, dv_o, du_p, dv_p] :
+       {std::array<float, 4>{h, 0, 0, 0}, {0, h, 0, 0}, {0, 0, h, 0}, {0, 0, 0, h}}) {
+    const auto moved = rays(du_o, dv_o, du_p, dv_p);
+    if (!moved.ok()) return NAN;
+    sum += (moved->point - base->point).squaredNorm();
+  }
+  return std::sqrt(sum);
+}
+
+// The static-grid goal per cell: the filter's state within max(1.5 x the geometric
+// limit, 3 cm), and within 5 cm at 0.5 m.
+void PrintGridAgainstLimit(const RigCalibration& cal, const std::vector<GridRow>& grid,
+                           const std::map<int64_t, const FrameRecord*>& by_index,
+                           const std::map<uint64_t, Truth>& truth) {
+  std::printf(
+      "\nState (filter) against the rig's geometric limit (each camera's centre to the nearest "
+      "pixel)\n");
+  std::printf("%6s %6s %6s | %9s %9s %9s | %s\n", "dist_m", "h_m", "brg", "state_cm", "limit_cm",
+              "bound_cm", "within");
+  int cells = 0, within = 0;
+  for (const GridRow& row : grid) {
+    auto it = by_index.find(row.index);
+    if (it == by_index.end()) continue;
+    const FrameRecord& r = *it->second;
+    const Truth* t = TruthAt(truth, r.state.t_us);
+    if (!t) continue;
+    const double e = r.state.found ? Dist3(r.state, *t) : NAN;
+    const double limit =
+        GeometricLimitM(cal, Eigen::Vector3f(static_cast<float>(t->x), static_cast<float>(t->y),
+                                             static_cast<float>(t->z)));
+    double bound = std::max(std::isfinite(limit) ? 1.5 * limit : 0.0, 0.03);
+    if (row.d_m < 0.51) bound = std::min(bound, 0.05);
+    const bool ok = std::isfinite(e) && e <= bound;
+    ++cells;
+    within += ok;
+    std::printf("%6.2f %6.2f %6.0f | %9.2f %9.2f %9.2f | %s\n", row.d_m, row.z_m, row.bearing_deg,
+                e * 100, limit * 100, bound * 100, ok ? "yes" : "NO");
+  }
+  std::printf("cells within max(1.5 x limit, 3 cm), <= 5 cm at 0.5 m: %d of %d\n", within, cells);
+}
+
 // Static grid: per distance x height the 3D error of the measurement (no filter, no ground
 // constraint) and of the omni-only "2D" estimate (paper Fig. 4).
-void EvalGrid(const Args& a, const std::vector<GridRow>& grid, const std::vector<FrameRecord>& recs,
-              const std::map<uint64_t, Truth>& truth) {
+void EvalGrid(const Args& a, const RigCalibration& cal, const std::vector<GridRow>& grid,
+              const std::vector<FrameRecord>& recs, const std::map<uint64_t, Truth>& truth) {
   std::map<int64_t, const FrameRecord*> by_index;
   for (const auto& r : recs) by_index[r.index] = &r;
   std::map<double, std::map<double, std::pair<double, double>>> cell;  // h -> d -> (3d, 2d)
@@ -401,6 +494,7 @@ void EvalGrid(const Args& a, const std::vector<GridRow>& grid, const std::vector
     std::printf("%6.2f %6.2f %6.0f | %9.2f %-5s | %9.2f | %7s\n", d, h, brg, e3 * 100,
                 MeasKind(r.state), e2 * 100, gap);
   }
+  PrintGridAgainstLimit(cal, grid, by_index, truth);
   // Goal table: median over bearings for each distance band.
   std::printf("\nGoals: median 3D error <= 3 cm at <= 2 m, <= 15 cm at 5 m\n");
   std::printf("%8s", "h_m");
@@ -770,7 +864,7 @@ int CmdEval(int argc, char** argv) {
   PrintOverall(a.seq, recs, truth);
   if (InterruptSignal()) ReportInterrupt("ballvision eval");
   if (is_grid) {
-    EvalGrid(a, grid, recs, truth);
+    EvalGrid(a, *s.pipeline->calibration(), grid, recs, truth);
     return InterruptSignal() ? InterruptExitCode() : 0;
   }
   const std::vector<double> bounces = ReadBounces(a.seq);
