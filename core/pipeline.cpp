@@ -62,6 +62,64 @@ void OmniRaySigma(const OmniCalibration& cal, const BallDetection& det, const Ra
   out.sigma_v_rad = s_px * std::clamp(per_px, 1e-4f, 0.05f);
 }
 
+// A sphere's outline is the cone of rays tangent to it, about the direction to its centre. Near
+// the wide-angle lens's edge the image of that cone is no circle (the distortion squeezes it, the
+// perspective stretches it off axis), so a cut ball's image circle misses the centre by pixels
+// there. Gauss-Newton on the outline rays' angles to the axis: the axis and the half-angle, from
+// the circle's; false (the circle kept) when fewer than 12 rays or the fit is poor.
+constexpr int kConePoints = 64;
+bool FitSphereCone(const PerspCalibration& cal, const int16_t* u, const int16_t* v, size_t n,
+                   Eigen::Vector3f& axis, float& half_angle) {
+  Eigen::Vector3f d[kConePoints];
+  size_t m = 0;
+  for (size_t i = 0; i < n && m < kConePoints; ++i) {
+    auto r = PerspPixelToRay(cal, static_cast<float>(u[i]), static_cast<float>(v[i]));
+    if (r.ok()) d[m++] = r->dir;
+  }
+  if (m < 12) return false;
+  float rms = 0;
+  for (int it = 0; it < 6; ++it) {
+    Eigen::Vector3f e1 =
+        std::fabs(axis.x()) < 0.9f ? Eigen::Vector3f::UnitX() : Eigen::Vector3f::UnitY();
+    e1 = (e1 - axis * axis.dot(e1)).normalized();
+    const Eigen::Vector3f e2(axis.y() * e1.z() - axis.z() * e1.y(),
+                             axis.z() * e1.x() - axis.x() * e1.z(),
+                             axis.x() * e1.y() - axis.y() * e1.x());
+    Eigen::Matrix3f h = Eigen::Matrix3f::Zero();
+    Eigen::Vector3f g = Eigen::Vector3f::Zero();
+    float ss = 0;
+    for (size_t i = 0; i < m; ++i) {
+      const float c = std::clamp(d[i].dot(axis), -1.f, 1.f);
+      const float s = std::max(std::sqrt(1.f - c * c), 1e-6f);
+      const float res = std::acos(c) - half_angle;
+      const Eigen::Vector3f j(-d[i].dot(e1) / s, -d[i].dot(e2) / s, -1.f);
+      h += j * j.transpose();
+      g += j * res;
+      ss += res * res;
+    }
+    rms = std::sqrt(ss / static_cast<float>(m));
+    // 3x3 solve, written out (no Eigen LU on the device).
+    const float det = h(0, 0) * (h(1, 1) * h(2, 2) - h(1, 2) * h(2, 1)) -
+                      h(0, 1) * (h(1, 0) * h(2, 2) - h(1, 2) * h(2, 0)) +
+                      h(0, 2) * (h(1, 0) * h(2, 1) - h(1, 1) * h(2, 0));
+    if (!(std::fabs(det) > 1e-12f)) return false;
+    Eigen::Vector3f step;
+    for (int k = 0; k < 3; ++k) {
+      Eigen::Matrix3f hk = h;
+      hk.col(k) = -g;
+      step(k) = (hk(0, 0) * (hk(1, 1) * hk(2, 2) - hk(1, 2) * hk(2, 1)) -
+                 hk(0, 1) * (hk(1, 0) * hk(2, 2) - hk(1, 2) * hk(2, 0)) +
+                 hk(0, 2) * (hk(1, 0) * hk(2, 1) - hk(1, 1) * hk(2, 0))) /
+                det;
+    }
+    axis = (axis + step(0) * e1 + step(1) * e2).normalized();
+    half_angle += step(2);
+    if (!axis.allFinite() || !(half_angle > 1e-3f && half_angle < 1.2f)) return false;
+  }
+  // The outline within ~1 px of a cone: a ball, not a blob the circle happened to fit.
+  return rms < 2.f / std::max(cal.fx, 1.f);
+}
+
 // Feature rays out to the line range (max_line_range_m; a 12.5 cm line is under a pixel wide
 // beyond ~5 m on the reference mirror) or where the distance map ends, in the direction where
 // that comes first; 3 px steps near the robot (a line is >= 8 px wide there) down to 1 px at the
@@ -567,6 +625,9 @@ Pipeline::CameraRays Pipeline::DetectionRays(const FrameInput& in, BallState& ou
       out.persp.found && !rays.persp_cut && pred_persp_.valid && pred_persp_.radius_px > 0.f &&
       out.persp.radius_px > kMaxApparentSizeRatio * pred_persp_.radius_px + 1.0f;
   if (persp_merged) out.persp = BallDetection{};  // not the ball: not reported as seen
+  if (out.persp.found && rays.persp_cut && out.persp.arc_sectors > 0) {
+    RefineCutBall(in.persp, out.persp);
+  }
   if (out.persp.found) {
     out.flags |= kFlagSeenPersp;
     auto ray = PerspPixelToRay(cal.persp, out.persp.u_px, out.persp.v_px);
@@ -601,7 +662,9 @@ void Pipeline::PerspRayNoiseAndRange(const BallDetection& det, const Ray& ray, b
   if (det.radius_px > 0.5f && !cut_centroid) {
     auto rim = PerspPixelToRay(cal.persp, det.u_px + det.radius_px, det.v_px);
     if (rim.ok()) {
-      auto q = PointFromApparentSize(ray, AngleBetween(ray.dir, rim->dir), cal.ball_radius_m);
+      const float angular =
+          det.angular_radius_rad > 0.f ? det.angular_radius_rad : AngleBetween(ray.dir, rim->dir);
+      auto q = PointFromApparentSize(ray, angular, cal.ball_radius_m);
       if (q.ok()) {
         out.range_m = ClosestDepthOnRay(ray, *q);
         // A cut ball's radius is as good as the part of its arc inside the image that was seen.
@@ -612,6 +675,29 @@ void Pipeline::PerspRayNoiseAndRange(const BallDetection& det, const Ray& ray, b
       }
     }
   }
+}
+
+// A cut ball's circle refined by the camera model (FitSphereCone): the centre pixel is the cone
+// axis's, the apparent size its half-angle.
+void Pipeline::RefineCutBall(const YuyvImage& img, BallDetection& det) const {
+  const PerspCalibration& cal = calibration_->persp;
+  const auto regions = persp_finder_.regions().regions();
+  size_t i = 0;
+  while (i < regions.size() && !(regions[i].cu_px == det.u_px && regions[i].cv_px == det.v_px)) ++i;
+  if (i == regions.size()) return;
+  int16_t u[kConePoints], v[kConePoints];
+  const size_t n = persp_finder_.regions().CirclePoints(i, img.width, img.height, u, v);
+  auto centre = PerspPixelToRay(cal, det.u_px, det.v_px);
+  auto rim = PerspPixelToRay(cal, det.u_px + det.radius_px, det.v_px);
+  if (!centre.ok() || !rim.ok()) return;
+  Eigen::Vector3f axis = centre->dir;
+  float half_angle = AngleBetween(centre->dir, rim->dir);
+  if (!FitSphereCone(cal, u, v, n, axis, half_angle)) return;
+  float cu, cv;
+  if (!PerspProject(cal, centre->origin + axis, cu, cv).ok()) return;
+  det.u_px = cu;
+  det.v_px = cv;
+  det.angular_radius_rad = half_angle;
 }
 
 // The two-ray midpoint (the paper's eq. 2) and its gap decide whether the two detections are the

@@ -186,6 +186,7 @@ class Pipeline {
                              BallRay& out) const;
   bool TriangulateSameBall(const CameraRays& rays, BallState& out);
   void BuildObservation(const CameraRays& rays, BallState& out, BallObservation& obs);
+  void RefineCutBall(const YuyvImage& img, BallDetection& det) const;
   void AdaptColours(const FrameInput& in, const BallState& out);
   void CheckTrackInField(bool have_field_pose, BallState& out);
   void ReviewCandidates(const FrameInput& in, const BallState& out);

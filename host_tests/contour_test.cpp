@@ -399,6 +399,15 @@ TEST(ContourCircleTest, ABallCutByTheImageBorderGivesItsCircle) {
   EXPECT_NEAR(fit.cu_px, cu, 1.0f);
   EXPECT_NEAR(fit.cv_px, cv, 1.5f);
   EXPECT_NEAR(fit.radius_px, rad, 1.5f);
+  // Its outline points on the circle, for a camera model to refine it: none on the border.
+  c.rs->SetCircle(0, fit);
+  int16_t u[64], v[64];
+  const size_t n = c.rs->CirclePoints(0, 640, 480, u, v);
+  EXPECT_GE(n, 24u);
+  for (size_t k = 0; k < n; ++k) {
+    EXPECT_LT(v[k], 479) << k;
+    EXPECT_NEAR(std::hypot(u[k] - cu, v[k] - cv), rad, 2.0f) << k;
+  }
   EXPECT_FALSE(c.rs->FitCircle(1, s, fit));
 }
 

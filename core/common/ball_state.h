@@ -16,6 +16,9 @@ struct BallDetection {
   // 0: u, v and radius are the region's; else a circle fitted to its outline, on this many of 16
   // sectors (core/contour: a ball merged with something behind it, or partly hidden)
   uint8_t arc_sectors = 0;
+  // > 0: the ball's angular radius from the camera's model (a cut ball's outline fitted as the
+  // cone of rays tangent to a sphere, core/pipeline); 0: from radius_px.
+  float angular_radius_rad = 0;
 };
 
 enum class BallMode : uint8_t { kNone = 0, kRolling = 1, kFlying = 2, kBouncing = 3 };

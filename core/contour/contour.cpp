@@ -571,6 +571,32 @@ bool RegionSetBase::FitCircle(size_t i, const CircleSearch& search, CircleFit& o
   return out.sectors >= NeededSectors(search, out.cu_px, out.cv_px, br) && on >= kMinArcPoints;
 }
 
+size_t RegionSetBase::CirclePoints(size_t i, int image_width, int image_height,
+                                   std::span<int16_t> u, std::span<int16_t> v) const {
+  if (i >= size_ || regions_[i].arc_sectors == 0 || u.size() != v.size() || u.empty()) return 0;
+  const Region& reg = regions_[i];
+  CircleSearch search;
+  search.image_width = image_width;
+  search.image_height = image_height;
+  const ImageBorder border = BorderOf(reg, search);
+  const float br = std::sqrt(reg.area_px / 3.14159265f) - 0.5f;  // boundary pixel centres
+  const float bx = reg.cu_px - static_cast<float>(reg.start_u);
+  const float by = reg.cv_px - static_cast<float>(reg.start_v);
+  const Ring ring = RingOf(br);
+  const uint32_t len = reg.chain_length;
+  const uint32_t stride = std::max<uint32_t>(1, len / static_cast<uint32_t>(u.size()));
+  size_t n = 0;
+  ForEachOutlinePoint(chain_ + reg.chain_offset, len, [&](uint32_t j, int x, int y) {
+    if (n >= u.size() || j % stride != 0 || border.Holds(x, y)) return;
+    const float dx = static_cast<float>(x) - bx, dy = static_cast<float>(y) - by;
+    if (!ring.Holds(dx * dx + dy * dy)) return;
+    u[n] = static_cast<int16_t>(reg.start_u + x);
+    v[n] = static_cast<int16_t>(reg.start_v + y);
+    ++n;
+  });
+  return n;
+}
+
 void RegionSetBase::SetCircle(size_t i, const CircleFit& fit) {
   if (i >= size_) return;
   Region& r = regions_[i];

@@ -116,6 +116,11 @@ class RegionSetBase {
   bool FitCircle(size_t i, const CircleSearch& search, CircleFit& out) const;
   /// Region `i` is described by `fit` from now on (centre, area of the disc, arc_sectors).
   void SetCircle(size_t i, const CircleFit& fit);
+  /// Region `i`'s outline points (image pixels) on its circle (cu_px, cv_px, radius_px as
+  /// SetCircle left it) and not on the image border, spread evenly along the outline, at most
+  /// `u.size()` (= `v.size()`); returns the count. For a camera model to refine the circle.
+  size_t CirclePoints(size_t i, int image_width, int image_height, std::span<int16_t> u,
+                      std::span<int16_t> v) const;
   uint32_t pixels_read() const { return pixels_read_; }
   uint32_t overflows() const { return overflows_; }
   uint32_t dropped_small() const { return dropped_small_; }
