@@ -502,6 +502,24 @@ TEST_P(UartRx, FloodFasterThanTheLoopDrainsDropsWholeFramesAndResyncs) {
       board->name(), kFrames + 1, r.frames.size(), r.rx.ring_full, r.decoder.errors());
 }
 
+// The QEMU board's replay hold (rx_bytes=N) waits on the bytes the loop is done with. Frames the
+// full ring dropped count too: a drop ends the hold, and the test fails on the missing replies
+// instead of running to its timeout (fw_qemu_commands hung so, 1 run in 12).
+TEST(UartRxQemu, BytesTheRingDroppedCountAsDoneForTheReplayHold) {
+  QemuBoard board;
+  std::vector<WireByte> wire;
+  uint64_t t = 0;
+  for (uint32_t i = 0; i < 100; ++i) {
+    t = Transmit(wire, t, Frame(protocol::MsgType::kSetParam, i, RandomBytes(80, i)));
+  }
+  LoopModel loop;
+  loop.frame_ns = 30000000;
+  const RunResult r = RunLine(board, wire, loop);
+  ASSERT_GT(r.rx.ring_full, 0u);
+  EXPECT_LT(r.bytes_read, wire.size());
+  EXPECT_EQ(*board.driver().rx_bytes(), wire.size());
+}
+
 TEST_P(UartRx, NoiseBetweenFramesCostsAtMostTheFrameItTouches) {
   auto board = MakeBoard(GetParam());
   std::vector<WireByte> wire;

@@ -38,6 +38,7 @@ class CmsdkUartT : public hal::Uart {
     const uint64_t t_us = clock_->ReadUs();
     while ((regs_->STATE & kUartStateRxFull) != 0) {
       rx_.Push(static_cast<uint8_t>(regs_->DATA), t_us);
+      ++rx_arrived_;
     }
     if ((regs_->STATE & kUartStateRxOverrun) != 0) {
       regs_->STATE = kUartStateRxOverrun;
@@ -64,8 +65,10 @@ class CmsdkUartT : public hal::Uart {
     }
   }
   uint32_t rx_overruns() const { return rx_.stats().overruns; }
-  /// Bytes the main loop has read (a test aid holds the replay open on it).
-  const uint32_t* rx_bytes() const { return &rx_bytes_; }
+  /// Bytes the main loop is done with: read, or lost (a frame the full ring dropped, an overrun),
+  /// as of its last Read(). A test aid holds the replay open on it; counting the lost ones lets a
+  /// drop end the hold (the test then fails on the missing replies) instead of hanging it.
+  const uint32_t* rx_bytes() const { return &rx_done_; }
   /// Fault injection: once *counter > at the transmitter accepts nothing more, as a line held
   /// by flow control or a hung peer would; the ring fills and Write() refuses packets.
   void StallTxAfter(const uint32_t* counter, uint32_t at) {
@@ -91,7 +94,10 @@ class CmsdkUartT : public hal::Uart {
   Result<size_t> DoRead(std::span<uint8_t> out) override {
     Poll();
     const size_t n = rx_.Read(out);
-    rx_bytes_ += static_cast<uint32_t>(n);
+    {
+      cm7::IrqLock lock;
+      rx_done_ = rx_arrived_ - static_cast<uint32_t>(rx_.size()) + rx_.stats().overruns;
+    }
     return n;
   }
   Result<uint64_t> DoLastRxFrameUs() const override { return rx_.LastFrameUs(); }
@@ -103,7 +109,8 @@ class CmsdkUartT : public hal::Uart {
   const ClockT* clock_ = nullptr;
   cm7::UartTxRing<kTxCapacity> tx_;
   cm7::UartRxRing<kRxCapacity, kRxFrames> rx_;
-  uint32_t rx_bytes_ = 0;
+  uint32_t rx_arrived_ = 0;  // every byte the interrupt took from the hardware
+  uint32_t rx_done_ = 0;
   const uint32_t* stall_counter_ = nullptr;
   uint32_t stall_at_ = 0;
   uint32_t writes_refused_ = 0;
