@@ -68,6 +68,11 @@ void OmniRaySigma(const OmniCalibration& cal, const BallDetection& det, const Ra
 // there. Gauss-Newton on the outline rays' angles to the axis: the axis and the half-angle, from
 // the circle's; false (the circle kept) when fewer than 12 rays or the fit is poor.
 constexpr int kConePoints = 64;
+float Det3(const Eigen::Matrix3f& m) {  // written out: no Eigen LU on the device
+  return m(0, 0) * (m(1, 1) * m(2, 2) - m(1, 2) * m(2, 1)) -
+         m(0, 1) * (m(1, 0) * m(2, 2) - m(1, 2) * m(2, 0)) +
+         m(0, 2) * (m(1, 0) * m(2, 1) - m(1, 1) * m(2, 0));
+}
 bool FitSphereCone(const PerspCalibration& cal, const int16_t* u, const int16_t* v, size_t n,
                    Eigen::Vector3f& axis, float& half_angle) {
   Eigen::Vector3f d[kConePoints];
@@ -98,19 +103,14 @@ bool FitSphereCone(const PerspCalibration& cal, const int16_t* u, const int16_t*
       ss += res * res;
     }
     rms = std::sqrt(ss / static_cast<float>(m));
-    // 3x3 solve, written out (no Eigen LU on the device).
-    const float det = h(0, 0) * (h(1, 1) * h(2, 2) - h(1, 2) * h(2, 1)) -
-                      h(0, 1) * (h(1, 0) * h(2, 2) - h(1, 2) * h(2, 0)) +
-                      h(0, 2) * (h(1, 0) * h(2, 1) - h(1, 1) * h(2, 0));
+    // h step = -g by Cramer's rule.
+    const float det = Det3(h);
     if (!(std::fabs(det) > 1e-12f)) return false;
     Eigen::Vector3f step;
     for (int k = 0; k < 3; ++k) {
       Eigen::Matrix3f hk = h;
       hk.col(k) = -g;
-      step(k) = (hk(0, 0) * (hk(1, 1) * hk(2, 2) - hk(1, 2) * hk(2, 1)) -
-                 hk(0, 1) * (hk(1, 0) * hk(2, 2) - hk(1, 2) * hk(2, 0)) +
-                 hk(0, 2) * (hk(1, 0) * hk(2, 1) - hk(1, 1) * hk(2, 0))) /
-                det;
+      step(k) = Det3(hk) / det;
     }
     axis = (axis + step(0) * e1 + step(1) * e2).normalized();
     half_angle += step(2);
@@ -647,8 +647,9 @@ void Pipeline::PerspRayNoiseAndRange(const BallDetection& det, const Ray& ray, b
   // centroid is off towards that part by up to the missing radius.
   // A fitted circle has the whole radius; its centre is as good as the arc it spans.
   const bool circle = det.arc_sectors > 0;
-  const float hidden_px =
-      pred_persp_.valid && !circle ? std::max(0.f, pred_persp_.radius_px - det.radius_px) : 0.f;
+  const float hidden_px = pred_persp_.valid && !circle
+                              ? std::max(0.f, pred_persp_.silhouette_radius_px - det.radius_px)
+                              : 0.f;
   const float arc_px = circle ? 0.5f + 0.25f * det.radius_px *
                                            static_cast<float>(kCircleSectors - det.arc_sectors) /
                                            static_cast<float>(kCircleSectors)

@@ -538,7 +538,6 @@ bool BallFilter::TryBounce(uint64_t t_new_us) {
   next.has_prior = true;
   next.prior_us = tc;
   next.v_in_z = -vin.z();
-  next.v_in_h = std::hypot(vin.x(), vin.y());
   next.v_in_xy = vin.head<2>();
   next.spin_in = seg_.spin;
   Eigen::Vector3f vout;
@@ -556,8 +555,9 @@ bool BallFilter::TryBounce(uint64_t t_new_us) {
   // The rebound is known as well as what went into it: the spin (none assumed after a kick) and
   // b (the configured value until a rebound has been fitted).
   next.spin_known = next.grip || seg_.spin_known;
+  const float v_in_h = std::hypot(vin.x(), vin.y());
   next.prior_sigma[3] = next.prior_sigma[4] =
-      seg_.spin_known ? 0.1f * next.v_in_h + 0.1f : 0.3f * next.v_in_h + 0.2f;
+      seg_.spin_known ? 0.1f * v_in_h + 0.1f : 0.3f * v_in_h + 0.2f;
   next.prior_sigma[5] = b_samples_ > 0 ? 0.12f * next.v_in_z + 0.1f : 0.25f * next.v_in_z + 0.2f;
   // Compare on the newest frame: old arc continued vs the rebound's prior.
   const Stored& s = Newest(0);

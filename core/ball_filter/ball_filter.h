@@ -121,9 +121,8 @@ class BallFilter {
     uint64_t prior_us = 0;
     float prior_mean[6] = {};
     float prior_sigma[6] = {};
-    float v_in_z = 0;  // vertical speed into the contact (for estimating b)
-    float v_in_h = 0;  // horizontal speed into the contact
-    Eigen::Vector2f v_in_xy = Eigen::Vector2f::Zero();
+    float v_in_z = 0;                                   // vertical speed into the contact (b)
+    Eigen::Vector2f v_in_xy = Eigen::Vector2f::Zero();  // horizontal velocity into it
     // The ball's spin as the horizontal speed of its surface at the bottom (a ball rolling without
     // slip: its velocity), constant in flight; unknown (a kick) counts as none. spin_in and grip
     // describe the contact that started the segment.

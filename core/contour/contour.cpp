@@ -302,14 +302,14 @@ struct ImageBorder {
   int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
   bool Holds(int x, int y) const { return known && (x <= x0 || y <= y0 || x >= x1 || y >= y1); }
 };
-ImageBorder BorderOf(const Region& reg, const CircleSearch& search) {
+ImageBorder BorderOf(const Region& reg, int image_width, int image_height) {
   ImageBorder b;
-  if (search.image_width <= 0 || search.image_height <= 0) return b;
+  if (image_width <= 0 || image_height <= 0) return b;
   b.known = true;
   b.x0 = -reg.start_u;
   b.y0 = -reg.start_v;
-  b.x1 = search.image_width - 1 - reg.start_u;
-  b.y1 = search.image_height - 1 - reg.start_v;
+  b.x1 = image_width - 1 - reg.start_u;
+  b.y1 = image_height - 1 - reg.start_v;
   return b;
 }
 
@@ -523,10 +523,9 @@ int SectorsInside(const CircleSearch& search, float cu, float cv, float r) {
   return inside;
 }
 
-// The arc a fit must span: min_sectors, or for a circle cut by the image border the sectors
-// inside it but one (at least kMinCutSectors).
-int NeededSectors(const CircleSearch& search, float cu, float cv, float r) {
-  const int inside = SectorsInside(search, cu, cv, r);
+// The arc a fit must span, given the sectors inside the image (SectorsInside): min_sectors, or
+// for a circle cut by the image border those inside but one (at least kMinCutSectors).
+int NeededSectors(const CircleSearch& search, int inside) {
   if (inside >= kCircleSectors) return search.min_sectors;
   return std::min(search.min_sectors, std::max(kMinCutSectors, inside - 1));
 }
@@ -539,7 +538,7 @@ bool RegionSetBase::FitCircle(size_t i, const CircleSearch& search, CircleFit& o
   const uint32_t len = reg.chain_length;
   if (reg.hole || len < 12) return false;
   const uint8_t* codes = chain_ + reg.chain_offset;
-  const ImageBorder border = BorderOf(reg, search);
+  const ImageBorder border = BorderOf(reg, search.image_width, search.image_height);
   OutlineSamples samples;
   SampleOutline(codes, len, border, samples);
   const int n = samples.n;
@@ -550,8 +549,8 @@ bool RegionSetBase::FitCircle(size_t i, const CircleSearch& search, CircleFit& o
   const float su = static_cast<float>(reg.start_u), sv = static_cast<float>(reg.start_v);
   // The best run must be most of the samples the arc needed would hold (a chain step is ~1.1 px);
   // otherwise no refinement is spent on it.
-  const float arc_samples = 6.2832f * br *
-                            static_cast<float>(NeededSectors(search, su + bx, sv + by, br)) /
+  const int needed = NeededSectors(search, SectorsInside(search, su + bx, sv + by, br));
+  const float arc_samples = 6.2832f * br * static_cast<float>(needed) /
                             static_cast<float>(kCircleSectors) *
                             static_cast<float>(samples.spaced) / (1.1f * static_cast<float>(len));
   if (best.score < 4 || static_cast<float>(best.score) < 0.6f * arc_samples) return false;
@@ -565,20 +564,18 @@ bool RegionSetBase::FitCircle(size_t i, const CircleSearch& search, CircleFit& o
   out.cv_px = sv + by;
   out.radius_px = br + 0.5f;
   out.sectors = LongestRun(mask);
-  out.border_sectors = kCircleSectors - SectorsInside(search, out.cu_px, out.cv_px, br);
+  const int inside = SectorsInside(search, out.cu_px, out.cv_px, br);
+  out.border_sectors = kCircleSectors - inside;
   out.on_circle = static_cast<float>(on) / static_cast<float>(len);
   // A short arc is no evidence of a circle: any ragged speck curves like one over ten pixels.
-  return out.sectors >= NeededSectors(search, out.cu_px, out.cv_px, br) && on >= kMinArcPoints;
+  return out.sectors >= NeededSectors(search, inside) && on >= kMinArcPoints;
 }
 
 size_t RegionSetBase::CirclePoints(size_t i, int image_width, int image_height,
                                    std::span<int16_t> u, std::span<int16_t> v) const {
   if (i >= size_ || regions_[i].arc_sectors == 0 || u.size() != v.size() || u.empty()) return 0;
   const Region& reg = regions_[i];
-  CircleSearch search;
-  search.image_width = image_width;
-  search.image_height = image_height;
-  const ImageBorder border = BorderOf(reg, search);
+  const ImageBorder border = BorderOf(reg, image_width, image_height);
   const float br = std::sqrt(reg.area_px / 3.14159265f) - 0.5f;  // boundary pixel centres
   const float bx = reg.cu_px - static_cast<float>(reg.start_u);
   const float by = reg.cv_px - static_cast<float>(reg.start_v);
