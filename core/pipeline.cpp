@@ -151,6 +151,17 @@ OmniFeatureRays FeatureRays(const OmniCalibration& cal, const OmniScanConfig& sc
   return f;
 }
 
+// How far a region's centroid may be off when its size disagrees with the predicted silhouette.
+// Smaller: the visible part of a partly hidden ball, off by up to the missing radius. Larger (past
+// the ~10 % that blur and a prediction's range error give): the ball merged with something
+// ball-coloured beside it (a spare ball, a cone behind it), whose area pulls the centroid by about
+// twice the radius it adds (areas r_b^2 and r_t^2 - r_b^2, centres ~r_b + r_o apart).
+float SizeMisfitPx(const ImagePrediction& pred, float radius_px) {
+  if (!pred.valid) return 0.f;
+  const float r = pred.silhouette_radius_px;
+  return std::max(0.f, r - radius_px) + 2.f * std::max(0.f, radius_px - 1.1f * r);
+}
+
 }  // namespace
 
 OmniScanConfig PipelineOmniScan(const OmniCalibration& cal, const PipelineConfig& config) {
@@ -647,9 +658,7 @@ void Pipeline::PerspRayNoiseAndRange(const BallDetection& det, const Ray& ray, b
   // centroid is off towards that part by up to the missing radius.
   // A fitted circle has the whole radius; its centre is as good as the arc it spans.
   const bool circle = det.arc_sectors > 0;
-  const float hidden_px = pred_persp_.valid && !circle
-                              ? std::max(0.f, pred_persp_.silhouette_radius_px - det.radius_px)
-                              : 0.f;
+  const float hidden_px = !circle ? SizeMisfitPx(pred_persp_, det.radius_px) : 0.f;
   const float arc_px = circle ? 0.5f + 0.25f * det.radius_px *
                                            static_cast<float>(kCircleSectors - det.arc_sectors) /
                                            static_cast<float>(kCircleSectors)
@@ -732,11 +741,7 @@ void Pipeline::BuildObservation(const CameraRays& rays, BallState& out, BallObse
     omni_ray.origin = rays.omni.origin;
     omni_ray.dir = rays.omni.dir;
     omni_ray.camera = 0;
-    // As in the perspective image (below): a region smaller than the predicted ball is the
-    // visible part of a partly hidden ball, its centroid off by up to the missing radius.
-    const float hidden_px =
-        pred_omni_.valid ? std::max(0.f, pred_omni_.silhouette_radius_px - out.omni.radius_px)
-                         : 0.f;
+    const float hidden_px = SizeMisfitPx(pred_omni_, out.omni.radius_px);
     OmniRaySigma(cal.omni, out.omni, rays.omni,
                  (rays.omni_cut ? 0.5f * out.omni.radius_px : 0.f) + hidden_px, config_, omni_ray);
   }

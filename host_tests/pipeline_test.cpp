@@ -13,6 +13,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include "core/color_lut/color_lut.h"
 #include "hal/host/sequence.h"
 #include "tools/ballvision/calib_io.h"
@@ -248,10 +250,10 @@ double Num(const cli::TruthCsv& t, size_t row, const char* column) {
   return v;
 }
 
-void RunSim(const char* scene, bool stills, SimRun& r) {
+void RunSim(const char* scene, bool stills, SimRun& r, const std::string& lut = "") {
   std::string err, used;
   ASSERT_TRUE(cli::LoadCalibrationFile(kRefCalib, r.cal, err)) << err;
-  ASSERT_TRUE(cli::LoadLutOrDefault("", kRefCalib, *r.lut, used, err)) << err;
+  ASSERT_TRUE(cli::LoadLutOrDefault(lut, kRefCalib, *r.lut, used, err)) << err;
   ASSERT_TRUE(r.pipeline->Init(r.cal, *r.lut, PipelineConfig{}).ok());
   host::Sequence seq;
   ASSERT_TRUE(host::LoadSequence(SimDir(scene), seq, err)) << err;
@@ -375,6 +377,31 @@ TEST(PipelineSim, BounceIsTrackedAndPredicted) {
   EXPECT_LE(cli::Median(state_err), 0.04);
   ASSERT_GT(pred_err.size(), 40u);
   EXPECT_LE(cli::Median(pred_err), 0.05);
+}
+
+// clutter with the built-in table, frames 12 and 15: an orange object just behind the ball merges
+// with it in the omni image (region radius 6.9-7.1 px against the predicted 5.4); its centroid is 3
+// px off, up the image (range). Before the ray's sigma grew with the excess size, the state
+// followed it, 13 and 23 cm off, and the sequence's p90 was 10 cm.
+TEST(PipelineSim, ABallMergedWithSomethingBesideItDoesNotPullTheState) {
+  if (!SimAvailable("clutter")) {
+    GTEST_SKIP() << "no sim/clutter or reference calibration";
+  }
+  SimRun r;
+  RunSim("clutter", false, r, "builtin");
+  std::vector<double> err;
+  for (size_t i = 0; i < r.recs.size(); ++i) {
+    const BallState& s = r.recs[i].state;
+    ASSERT_TRUE(s.found) << "frame " << r.recs[i].index;
+    const Eigen::Vector3f t(Num(r.truth, i, "ball_x"), Num(r.truth, i, "ball_y"),
+                            Num(r.truth, i, "ball_z"));
+    err.push_back((Eigen::Vector3f(s.x_m, s.y_m, s.z_m) - t).norm());
+    if (r.recs[i].index == 12 || r.recs[i].index == 15) {
+      EXPECT_LE(err.back(), 0.05) << "frame " << r.recs[i].index;
+    }
+  }
+  std::sort(err.begin(), err.end());
+  EXPECT_LE(err[err.size() * 9 / 10], 0.06);
 }
 
 TEST(PipelineCli, RunWritesTheDesignColumns) {
