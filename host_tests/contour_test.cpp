@@ -281,6 +281,44 @@ TEST(ContourTest, CapacityOverflowIsReportedAndBounded) {
   EXPECT_EQ(small->overflows(), 0u);
 }
 
+TEST(ContourTest, WhenFullARounderRegionReplacesTheWeakestUnprotectedOne) {
+  // Eight strips fill a set of 8 (the first two protected), then a disc and another strip come.
+  Frame f;
+  for (int i = 0; i < 9; ++i)
+    for (int du = 0; du < 20 + i; ++du) f.Set(20 + du, 20 + 10 * i, true);
+  f.Draw([](int u, int v) { return std::hypot(u - 300.0f, v - 300.0f) <= 10.0f; });
+  auto rs = std::make_unique<RegionSet<8, 8192>>();
+  for (int i = 0; i < 2; ++i)
+    ASSERT_EQ(rs->TraceSeed(f.view(), Lut(), ColorClass::kBall, 20, 20 + 10 * i),
+              SeedOutcome::kNewRegion);
+  rs->ProtectTraced();
+  for (int i = 2; i < 8; ++i)
+    ASSERT_EQ(rs->TraceSeed(f.view(), Lut(), ColorClass::kBall, 20, 20 + 10 * i),
+              SeedOutcome::kNewRegion);
+  EXPECT_EQ(rs->TraceSeed(f.view(), Lut(), ColorClass::kBall, 295, 300), SeedOutcome::kReplaced);
+  // Not stronger than any unprotected strip left: let go.
+  EXPECT_EQ(rs->TraceSeed(f.view(), Lut(), ColorClass::kBall, 20, 100), SeedOutcome::kRegionsFull);
+  EXPECT_EQ(rs->TraceSeed(f.view(), Lut(), ColorClass::kBall, 305, 300),
+            SeedOutcome::kAlreadyTraced);
+  ASSERT_EQ(rs->regions().size(), 8u);
+  EXPECT_EQ(rs->overflows(), 1u);
+  EXPECT_EQ(rs->replaced(), 1u);
+  int discs = 0, protected_kept = 0;
+  for (const Region& r : rs->regions()) {
+    discs += std::fabs(r.cu_px - 300.0f) < 0.1f && std::fabs(r.cv_px - 300.0f) < 0.1f;
+    protected_kept += r.v_min == 20 || r.v_min == 30;
+  }
+  EXPECT_EQ(discs, 1);
+  EXPECT_EQ(protected_kept, 2);
+
+  // All protected: nothing is replaced.
+  rs->Clear();
+  for (int i = 0; i < 8; ++i) rs->TraceSeed(f.view(), Lut(), ColorClass::kBall, 20, 20 + 10 * i);
+  rs->ProtectTraced();
+  EXPECT_EQ(rs->TraceSeed(f.view(), Lut(), ColorClass::kBall, 295, 300), SeedOutcome::kRegionsFull);
+  EXPECT_EQ(rs->replaced(), 0u);
+}
+
 TEST(ContourTest, WholeFrameInClassTracesTheBorder) {
   Frame f;
   f.Draw([](int, int) { return true; });

@@ -60,12 +60,12 @@ TEST(DetectRealTest, MslYellowBallHeldOutHalf) {
   if (!Exists(dir + "/annotations_px.txt")) GTEST_SKIP() << "no data at " << dir;
   const auto e = TrainAndTest(dir + "/annotations_px.txt", dir + "/images", 0);
   EXPECT_EQ(e.images, 6);
-  EXPECT_GE(e.hit, 4);  // 5 of 6 when written
-  EXPECT_LE(e.false_det, 2);
   const auto f = TrainAndTest(dir + "/annotations_px.txt", dir + "/images", 1);
   EXPECT_EQ(f.images, 6);
-  EXPECT_GE(f.hit, 3);  // 4 of 6 when written
-  EXPECT_LE(f.false_det, 3);
+  // The goal over both halves: >= 11 of 12 found, <= 1 false (6 + 5, 0 + 1 when written;
+  // 5 + 4 and 1 + 2 before the shape-first choice and the replacement of the weakest region).
+  EXPECT_GE(e.hit + f.hit, 11);
+  EXPECT_LE(e.false_det + f.false_det, 1);
 }
 
 TEST(DetectRealTest, RcjOrangeBallHeldOutHalf) {

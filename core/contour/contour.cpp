@@ -13,6 +13,19 @@ void RegionSetBase::Clear() {
   dropped_small_ = 0;
   chain_exhausted_ = false;
   regions_exhausted_ = false;
+  protected_ = 0;
+  replaced_ = 0;
+}
+
+size_t RegionSetBase::Weakest() const {
+  size_t weakest = size_;
+  for (size_t i = protected_; i < size_; ++i) {
+    if (!regions_[i].hole &&
+        (weakest == size_ || ShapeEvidence(regions_[i]) < ShapeEvidence(regions_[weakest]))) {
+      weakest = i;
+    }
+  }
+  return weakest;
 }
 
 bool RegionSetBase::OnContour(Region& r, int u, int v) {
@@ -193,14 +206,16 @@ SeedOutcome RegionSetBase::TraceSeed(const YuyvImage& img, const ColorLut& lut, 
         goto cross_hole;
       }
     }
-    if (regions_exhausted_ || size_ >= capacity_) {
-      if (!regions_exhausted_) ++overflows_;
-      regions_exhausted_ = true;
-      return SeedOutcome::kRegionsFull;
-    }
-    if (chain_exhausted_) return SeedOutcome::kChainFull;
     {
-      Region& r = regions_[size_];
+      const bool full = size_ >= capacity_;
+      if (full) {
+        if (!regions_exhausted_) ++overflows_;
+        regions_exhausted_ = true;
+      }
+      if (chain_exhausted_) return SeedOutcome::kChainFull;
+      // When full, the trace goes to a scratch record: it replaces the weakest region or is let go.
+      Region scratch;
+      Region& r = full ? scratch : regions_[size_];
       const size_t chain_before = chain_used_;
       if (!Trace(img, lut, cls, u, v, r)) {
         chain_used_ = chain_before;
@@ -213,8 +228,21 @@ SeedOutcome RegionSetBase::TraceSeed(const YuyvImage& img, const ColorLut& lut, 
         ++dropped_small_;
         return SeedOutcome::kTooSmall;
       }
-      ++size_;
-      if (!r.hole) return SeedOutcome::kNewRegion;
+      if (full) {
+        const size_t weakest = Weakest();
+        // A trace let go keeps its codes used: with the pool, they bound the work a frame of
+        // clutter can cost, as before the capacity was reached. A hole is crossed all the same.
+        if (r.hole || weakest >= size_ || ShapeEvidence(r) <= ShapeEvidence(regions_[weakest])) {
+          if (!r.hole) return SeedOutcome::kRegionsFull;
+        } else {
+          regions_[weakest] = r;  // its chain codes stay used until Clear
+          ++replaced_;
+          return SeedOutcome::kReplaced;
+        }
+      } else {
+        ++size_;
+        if (!r.hole) return SeedOutcome::kNewRegion;
+      }
     }
   cross_hole:
     // Walk left through the hole to the next pixel of the class, then on to its boundary.

@@ -6,6 +6,7 @@
 // sub-pixel centroid, roundness. Holes (e.g. a specular highlight inside the ball) are traced
 // once, kept as hole records so later seeds skip them, and are filled in the outer region's
 // area and centroid.
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <span>
@@ -43,6 +44,13 @@ struct Region {
 };
 
 inline constexpr float kHullMinArea = 8.0f;
+
+/// How much a region alone says "ball": its radius (a speck is noise; beyond that, size says
+/// little, a far ball is small), discounted hard for a shape that is not round (a yellow shirt of
+/// hull roundness 0.68 and 2.5x the ball's area must not outweigh the ball at 0.91).
+inline float ShapeEvidence(const Region& r) {
+  return std::sqrt(r.area_px) * r.hull_roundness * r.hull_roundness;
+}
 
 /// The dominant circular arc of a region's outline: a ball merged with a same-coloured object
 /// behind it, or partly hidden, keeps most of its own outline, whose circle gives its true centre
@@ -87,7 +95,8 @@ enum class SeedOutcome : uint8_t {
   kNewRegion,      // traced a new outer contour (regions().back())
   kAlreadyTraced,  // the seed's region was traced before: nothing traced
   kNotInClass,     // the seed pixel is not of the class (or outside the image)
-  kRegionsFull,    // region capacity reached (counted in overflows())
+  kReplaced,       // capacity reached; the new outer region replaced the weakest unprotected one
+  kRegionsFull,    // capacity reached and the new region is no stronger, or no tries left
   kChainFull,      // chain-code pool exhausted (counted in overflows())
   kTooManyHoles,   // gave up after kMaxHoleHops holes between seed and outer contour
   kTooSmall,       // traced, below min_keep_area: not kept (counted in dropped_small())
@@ -99,6 +108,8 @@ class RegionSetBase {
 
   /// Forgets all regions (start of a frame). Counters are reset too.
   void Clear();
+  /// The regions traced so far are never replaced (those the prediction's attention found).
+  void ProtectTraced() { protected_ = size_; }
   /// Outer regions smaller than this (area_px) are forgotten right after tracing, so clutter
   /// specks do not use up the capacity; a later seed in one traces it again (a short contour).
   void set_min_keep_area(float area_px) { min_keep_area_ = area_px; }
@@ -124,6 +135,7 @@ class RegionSetBase {
   uint32_t pixels_read() const { return pixels_read_; }
   uint32_t overflows() const { return overflows_; }
   uint32_t dropped_small() const { return dropped_small_; }
+  uint32_t replaced() const { return replaced_; }
   size_t capacity() const { return capacity_; }
 
  protected:
@@ -132,6 +144,7 @@ class RegionSetBase {
 
  private:
   bool OnContour(Region& r, int u, int v);
+  size_t Weakest() const;  // size_ when every region is protected or a hole
   // Traces from a boundary pixel; false when the chain pool overflows.
   bool Trace(const YuyvImage& img, const ColorLut& lut, ColorClass cls, int u, int v, Region& out);
 
@@ -145,6 +158,8 @@ class RegionSetBase {
   uint32_t overflows_ = 0;
   uint32_t dropped_small_ = 0;
   float min_keep_area_ = 0;
+  size_t protected_ = 0;
+  uint32_t replaced_ = 0;
   bool chain_exhausted_ = false;
   bool regions_exhausted_ = false;
 };

@@ -184,6 +184,7 @@ Status BallFinder::Find(const YuyvImage& image, const ColorLut& lut, const Predi
   // 1. Monte-Carlo attention first, so the predicted ball is traced before clutter can fill the
   //    region capacity.
   const uint32_t attention_reads = Attend(image, lut, prediction, stats);
+  regions_.ProtectTraced();  // clutter the scanlines find later cannot replace them
   stats.attention_samples = attention_reads;
   // 2. Scanlines, row-major: a seed at the first ball sample of every run along a row. The chroma
   //    box rejects most samples before the table is read.
@@ -261,8 +262,9 @@ uint32_t BallFinder::Attend(const YuyvImage& image, const ColorLut& lut,
   return attention_reads;
 }
 
-// Of the regions that pass: inside the field, then nearest the prediction, else the largest round
-// region with field colour around it (a ball on the carpet; cheap: 16 lookups on a ring).
+// Of the regions that pass: inside the field, then nearest the prediction, else the most ball-like
+// shape (ShapeEvidence) with field colour around it (a ball on the carpet; cheap: 16 lookups on a
+// ring).
 BallFinder::Choice BallFinder::ChooseBall(const YuyvImage& image, const ColorLut& lut,
                                           const Prediction* prediction,
                                           FrontEndStats& stats) const {
@@ -285,7 +287,7 @@ BallFinder::Choice BallFinder::ChooseBall(const YuyvImage& image, const ColorLut
       const float du = r.cu_px - prediction->u_px, dv = r.cv_px - prediction->v_px;
       key = -(du * du + dv * dv);
     } else {
-      key = r.area_px * r.hull_roundness * (0.2f + FieldContext(image, lut, r));
+      key = ShapeEvidence(r) * (0.2f + FieldContext(image, lut, r));
       stats.pixels_read += kContextSamples;
     }
     if (choice.best < 0 || (in_field && !choice.in_field) ||
