@@ -147,6 +147,18 @@ TEST(DetectTest, BlobNoiseOverflowsRegionsAndReportsIt) {
   EXPECT_TRUE(d.found);  // squares pass the shape test; what matters is the bound and the report
 }
 
+// Runs the finder; the ball must be found at (u, v). Returns the counters.
+FrontEndStats ExpectBallAt(const Omni& o, const Frame& f, const Prediction* p, float u, float v,
+                           float tol_px) {
+  BallDetection d;
+  FrontEndStats s;
+  EXPECT_TRUE(o.finder->Find(f.view(), Lut(), p, d, s).ok());
+  EXPECT_TRUE(d.found);
+  EXPECT_NEAR(d.u_px, u, tol_px);
+  EXPECT_NEAR(d.v_px, v, tol_px);
+  return s;
+}
+
 // Thin ball-coloured strips (a badly taught table in a cluttered hall) fill the region capacity
 // before the scanlines reach the ball: the ball replaces the weakest of them.
 TEST(DetectTest, ABallBeyondTheCapacityOfClutterIsStillFound) {
@@ -158,13 +170,7 @@ TEST(DetectTest, ABallBeyondTheCapacityOfClutterIsStillFound) {
       for (int du = 0; du < 20; ++du) f.Set(u + du, v, kBallY);
   ASSERT_GT(strips, static_cast<int>(BallFinder::kMaxRegions));
   f.Disc(330.4f, 400.6f, 8.0f);
-  BallDetection d;
-  FrontEndStats s;
-  ASSERT_TRUE(o.finder->Find(f.view(), Lut(), nullptr, d, s).ok());
-  EXPECT_EQ(s.overflows, 1u);
-  ASSERT_TRUE(d.found);
-  EXPECT_NEAR(d.u_px, 330.4f, 0.3f);
-  EXPECT_NEAR(d.v_px, 400.6f, 0.3f);
+  EXPECT_EQ(ExpectBallAt(o, f, nullptr, 330.4f, 400.6f, 0.3f).overflows, 1u);
 }
 
 // With no prediction, shape outweighs size: a blob of hull roundness ~0.7 (a shirt) twice the
@@ -178,12 +184,7 @@ TEST(DetectTest, WithoutAPredictionARoundBallBeatsALargerBlob) {
       if (x * x + y * y <= 1.0f) f.Set(u, v, kBallY);
     }
   f.Disc(440.3f, 330.7f, 24.0f);
-  BallDetection d;
-  FrontEndStats s;
-  ASSERT_TRUE(o.finder->Find(f.view(), Lut(), nullptr, d, s).ok());
-  ASSERT_TRUE(d.found);
-  EXPECT_NEAR(d.u_px, 440.3f, 0.5f);
-  EXPECT_NEAR(d.v_px, 330.7f, 0.5f);
+  ExpectBallAt(o, f, nullptr, 440.3f, 330.7f, 0.5f);
 }
 
 // The predicted ball, small and far, is traced by the attention samples first; larger discs the
@@ -199,13 +200,7 @@ TEST(DetectTest, ClutterCannotReplaceThePredictedBall) {
   p.u_px = 500.0f;
   p.v_px = 300.0f;
   p.sigma_px = 4.0f;
-  BallDetection d;
-  FrontEndStats s;
-  ASSERT_TRUE(o.finder->Find(f.view(), Lut(), &p, d, s).ok());
-  EXPECT_GE(s.overflows, 1u);
-  ASSERT_TRUE(d.found);
-  EXPECT_NEAR(d.u_px, 500.3f, 0.5f);
-  EXPECT_NEAR(d.v_px, 300.2f, 0.5f);
+  EXPECT_GE(ExpectBallAt(o, f, &p, 500.3f, 300.2f, 0.5f).overflows, 1u);
 }
 
 TEST(DetectTest, ChoosesRoundThenInFieldThenNearestPrediction) {
