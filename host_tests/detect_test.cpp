@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include "core/color_lut/color_model.h"
+
 #include "host_tests/test_util.h"
 
 #include <cmath>
@@ -185,6 +187,57 @@ TEST(DetectTest, WithoutAPredictionARoundBallBeatsALargerBlob) {
     }
   f.Disc(440.3f, 330.7f, 24.0f);
   ExpectBallAt(o, f, nullptr, 440.3f, 330.7f, 0.5f);
+}
+
+// A small ball in the air, anti-aliased (each pixel the mix of ball and background it covers):
+// the grey hall above it, the green field below, under the built-in colour model. The binary
+// class keeps the mixed pixels against grey and drops them against green, so the region's
+// centroid sits high; the soft centroid unmixes the boundary and finds the centre.
+TEST(DetectTest, SoftCentroidOfABallBetweenHallAndField) {
+  auto lut = std::make_unique<ColorLut>();
+  ASSERT_TRUE(BuildLut(BallColorModel{}, *lut).ok());
+  constexpr float kU = 455.3f, kV = 363.6f, kR = 4.5f;
+  constexpr float kBall[3] = {90, 100, 190}, kGrey[3] = {100, 128, 128}, kGreen[3] = {70, 157, 108};
+  std::vector<float> yuv(static_cast<size_t>(kFrameWidth) * kFrameHeight * 3);
+  for (int v = 0; v < kFrameHeight; ++v) {
+    for (int u = 0; u < kFrameWidth; ++u) {
+      int in = 0;  // of 8 x 8 subsamples
+      if (std::hypot(u - kU, v - kV) < kR + 1.5f)
+        for (int j = 0; j < 8; ++j)
+          for (int i = 0; i < 8; ++i)
+            in += std::hypot(u - 0.4375f + i / 8.0f - kU, v - 0.4375f + j / 8.0f - kV) <= kR;
+      const float a = in / 64.0f;
+      const float* bg = v < kV ? kGrey : kGreen;
+      for (int c = 0; c < 3; ++c)
+        yuv[(static_cast<size_t>(v) * kFrameWidth + u) * 3 + c] = a * kBall[c] + (1 - a) * bg[c];
+    }
+  }
+  Frame f;  // YUYV: U and V averaged over each pixel pair, as the camera delivers them
+  for (int v = 0; v < kFrameHeight; ++v) {
+    for (int u = 0; u < kFrameWidth; u += 2) {
+      const float* p = &yuv[(static_cast<size_t>(v) * kFrameWidth + u) * 3];
+      uint8_t* q = &f.data[(static_cast<size_t>(v) * kFrameWidth + u) * 2];
+      q[0] = static_cast<uint8_t>(std::lround(p[0]));
+      q[2] = static_cast<uint8_t>(std::lround(p[3]));
+      q[1] = static_cast<uint8_t>(std::lround(0.5f * (p[1] + p[4])));
+      q[3] = static_cast<uint8_t>(std::lround(0.5f * (p[2] + p[5])));
+    }
+  }
+  for (bool soft : {false, true}) {
+    BallFinderConfig cfg;
+    cfg.soft_centroid = soft;
+    Omni o(cfg);
+    BallDetection d;
+    FrontEndStats s;
+    ASSERT_TRUE(o.finder->Find(f.view(), *lut, nullptr, d, s).ok());
+    ASSERT_TRUE(d.found);
+    if (soft) {
+      EXPECT_NEAR(d.u_px, kU, 0.15f);  // 0.1 px along u: the chroma shared by pixel pairs
+      EXPECT_NEAR(d.v_px, kV, 0.05f);
+    } else {
+      EXPECT_LT(d.v_px, kV - 0.15f);  // the bias the soft centroid removes
+    }
+  }
 }
 
 // The predicted ball, small and far, is traced by the attention samples first; larger discs the

@@ -215,7 +215,9 @@ Status BallFinder::Find(const YuyvImage& image, const ColorLut& lut, const Predi
   stats.pixels_read += stats.scan_pixels + attention_reads + regions_.pixels_read();
   if (choice.best < 0) return Status::Ok();
   chosen_ = choice.best;
-  Report(regions_.regions()[static_cast<size_t>(choice.best)], choice, prediction, out);
+  const Region& ball = regions_.regions()[static_cast<size_t>(choice.best)];
+  Report(ball, choice, prediction, out);
+  if (config_.soft_centroid) SoftCentroid(image, lut, ball, out);
   return Status::Ok();
 }
 
@@ -323,4 +325,122 @@ void BallFinder::Report(const Region& r, const Choice& choice, const Prediction*
   out.confidence = conf;
 }
 
+namespace {
+// SoftCentroid's window as one 32-bit mask per row (bit x: pixel x of the row is ball).
+struct RowMasks {
+  uint32_t ball[BallFinder::kSoftWindow + 2] = {};  // rows -1 .. h, the outer two empty
+  uint32_t Row(int y) const { return ball[y + 1]; }
+  bool Ball(int x, int y) const { return x >= 0 && x < 32 && ((Row(y) >> x) & 1u); }
+  static uint32_t Spread(uint32_t m) { return m | (m << 1) | (m >> 1); }
+  // Ball, or an 8-neighbour of a ball pixel: the pixels a boundary can split.
+  uint32_t Near(int y) const { return Spread(Row(y - 1)) | Spread(Row(y)) | Spread(Row(y + 1)); }
+  // Ball with all four 4-neighbours ball.
+  uint32_t Interior(int y) const {
+    const uint32_t m = Row(y);
+    return m & (m << 1) & (m >> 1) & Row(y - 1) & Row(y + 1);
+  }
+  bool NearAt(int x, int y) const {
+    return x >= 0 && x < 32 && y >= 0 && y < BallFinder::kSoftWindow && ((Near(y) >> x) & 1u);
+  }
+  bool InteriorAt(int x, int y) const {
+    return x >= 0 && x < 32 && y >= 0 && y < BallFinder::kSoftWindow && ((Interior(y) >> x) & 1u);
+  }
+};
+
+float Dot3(const float* a, const float* b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+void Load(const Yuv& p, float* out) { out[0] = p.y, out[1] = p.u, out[2] = p.v; }
+}  // namespace
+
+// A pixel on the ball's outline is a mix of ball and what lies behind it. The binary class keeps
+// a mixed pixel against a grey background down to ~40 % ball and drops it against the green
+// field below ~65 %, so the centroid moves away from the field. Here every pixel of the boundary
+// band (ball pixels with a non-ball 4-neighbour, non-ball pixels touching the ball) weighs its
+// ball fraction: its colour unmixed, along the line in YUV from the background just outside it
+// (outward from the centroid) to the ball just inside. Interior pixels weigh 1. Cut balls,
+// fitted circles and balls wider than the window (near ones, whose bias costs little in 3D)
+// keep what they have.
+void BallFinder::SoftCentroid(const YuyvImage& image, const ColorLut& lut, const Region& r,
+                              BallDetection& out) const {
+  constexpr int kMargin = 2, kSteps = 4;
+  constexpr float kOffLine = 0.0625f;  // (a quarter of the ball-background distance)^2
+  const int u0 = r.u_min - kMargin, v0 = r.v_min - kMargin;
+  const int w = r.u_max - r.u_min + 1 + 2 * kMargin, h = r.v_max - r.v_min + 1 + 2 * kMargin;
+  if (r.arc_sectors > 0 || w > kSoftWindow || h > kSoftWindow || u0 - kSteps < 0 ||
+      v0 - kSteps < 0 || u0 + w + kSteps > image.width || v0 + h + kSteps > image.height) {
+    return;
+  }
+  RowMasks mask;
+  float mean[3] = {0, 0, 0};
+  int n_ball = 0;
+  for (int y = 0; y < h; ++y) {
+    uint32_t row = 0;
+    for (int x = 0; x < w; ++x) {
+      const Yuv p = image.at(u0 + x, v0 + y);
+      if (lut.Classify(p.y, p.u, p.v) != ColorClass::kBall) continue;
+      row |= 1u << x;
+      mean[0] += p.y, mean[1] += p.u, mean[2] += p.v;
+      ++n_ball;
+    }
+    mask.ball[y + 1] = row;
+  }
+  if (n_ball == 0) return;
+  for (float& m : mean) m /= static_cast<float>(n_ball);
+  const float cx = r.cu_px - static_cast<float>(u0), cy = r.cv_px - static_cast<float>(v0);
+  float sw = 0, su = 0, sv = 0;
+  for (int y = 0; y < h; ++y) {
+    const uint32_t inner = mask.Interior(y);
+    for (uint32_t m = inner; m != 0; m &= m - 1) {
+      sw += 1.f;
+      su += static_cast<float>(__builtin_ctz(m));
+      sv += static_cast<float>(y);
+    }
+    for (uint32_t m = mask.Near(y) & ~inner & ((w < 32 ? (1u << w) : 0u) - 1u); m != 0;
+         m &= m - 1) {
+      const int x = __builtin_ctz(m);
+      const float dx = static_cast<float>(x) - cx, dy = static_cast<float>(y) - cy;
+      const float len = std::sqrt(dx * dx + dy * dy);
+      const float ex = len > 0.f ? dx / len : 1.f, ey = len > 0.f ? dy / len : 0.f;
+      // Background: the first pixel outward off the band; ball: the first interior one inward.
+      const float* ball = mean;
+      float bg[3] = {0, 0, 0}, in[3] = {0, 0, 0};
+      bool have_bg = false;
+      for (int k = 1; k <= kSteps && !have_bg; ++k) {
+        const int bx = x + static_cast<int>(std::lround(static_cast<float>(k) * ex));
+        const int by = y + static_cast<int>(std::lround(static_cast<float>(k) * ey));
+        if (mask.NearAt(bx, by)) continue;
+        Load(image.at(u0 + bx, v0 + by), bg);
+        have_bg = true;
+      }
+      for (int k = 1; k <= kSteps; ++k) {
+        const int ix = x - static_cast<int>(std::lround(static_cast<float>(k) * ex));
+        const int iy = y - static_cast<int>(std::lround(static_cast<float>(k) * ey));
+        if (!mask.InteriorAt(ix, iy)) continue;
+        Load(image.at(u0 + ix, v0 + iy), in);
+        ball = in;
+        break;
+      }
+      float weight = mask.Ball(x, y) ? 1.f : 0.f;
+      if (have_bg) {
+        float p[3];
+        Load(image.at(u0 + x, v0 + y), p);
+        const float d[3] = {ball[0] - bg[0], ball[1] - bg[1], ball[2] - bg[2]};
+        const float e[3] = {p[0] - bg[0], p[1] - bg[1], p[2] - bg[2]};
+        const float dd = Dot3(d, d), ed = Dot3(e, d);
+        // Unmixed only where the pixel is a mix of these two colours: not too alike (10 levels
+        // apart), the pixel near the line between them (a third colour, a shadow strip between
+        // the ball and a white line, is no mix of the two). Else the class decides.
+        const float off_line = Dot3(e, e) - ed * ed / std::max(dd, 1.f);
+        if (dd >= 100.f && off_line <= std::max(kOffLine * dd, 100.f)) {
+          weight = std::clamp(ed / dd, 0.f, 1.f);
+        }
+      }
+      sw += weight;
+      su += weight * static_cast<float>(x);
+      sv += weight * static_cast<float>(y);
+    }
+  }
+  if (!(sw > 0.f)) return;
+  out.u_px = static_cast<float>(u0) + su / sw;
+  out.v_px = static_cast<float>(v0) + sv / sw;
+}
 }  // namespace bv

@@ -75,6 +75,10 @@ struct BallFinderConfig {
   // ColorLut::Bounds(kBall) of the LUT passed to Find: scanline pixels outside it are rejected
   // without a table lookup. The default box rejects nothing.
   ChromaBox ball_box;
+  // The chosen ball's centre from its pixels weighted by how much of each is ball (SoftCentroid),
+  // not from the binary region: a ball in the air loses its edge pixels against the green field
+  // below and keeps them against the grey hall above, which moved the centroid 0.2-0.5 px up.
+  bool soft_centroid = true;
 };
 
 class BallFinder {
@@ -83,6 +87,8 @@ class BallFinder {
   static constexpr size_t kMaxRegions = 48;
   static constexpr size_t kMaxChainCodes = 8192;
   static constexpr int kMaxCircleFits = 3;
+  // SoftCentroid's window (the region's box and 2 px around it), at most this wide and high.
+  static constexpr int kSoftWindow = 32;
 
   /// `scanlines` must outlive the finder. Errors: kFailedPrecondition (table not built),
   /// kInvalidArgument (bad config).
@@ -117,7 +123,7 @@ class BallFinder {
   // Find()'s steps, in its order.
   struct Choice {  // the ball choice over the regions
     int best = -1;
-    float key = 0;  // -(distance to the prediction)^2, else area x roundness x field context
+    float key = 0;  // -(distance to the prediction)^2, else ShapeEvidence x field context
     bool in_field = false;
     uint32_t candidates = 0, holes = 0;
   };
@@ -128,6 +134,8 @@ class BallFinder {
                     FrontEndStats& stats) const;
   void Report(const Region& r, const Choice& choice, const Prediction* prediction,
               BallDetection& out) const;
+  void SoftCentroid(const YuyvImage& image, const ColorLut& lut, const Region& r,
+                    BallDetection& out) const;
 
   const ScanlineTableBase* scan_ = nullptr;
   BallFinderConfig config_;
