@@ -371,6 +371,50 @@ TEST_P(BounceSeries, ContactTimesAndRestitution) {
 
 INSTANTIATE_TEST_SUITE_P(B, BounceSeries, ::testing::Values(0.5f, 0.6f, 0.7f, 0.85f));
 
+// A drop whose first contact falls on a frame: that frame fits the arc through the floor as well
+// as the rebound, so the bounce is taken a frame later, from the arc fitted through the contact
+// frame (a nominal already past the rebound sent that fit to vz -5.3 for -4.5 m/s, and b came out
+// 0.64 for 0.75; bounce seed 139).
+TEST(BallFilter, AContactOnAFrameTimeGivesTheRightRestitution) {
+  const float b_true = 0.75f;
+  const int contact_frame = 14;
+  auto drop = [&](float h0, std::vector<Eigen::Vector3f>* truth) {
+    Sim ball{Eigen::Vector3f(0.f, 2.f, h0), Eigen::Vector3f::Zero()};
+    ball.b = b_true;
+    for (int k = 0; k < 40; ++k) {
+      if (truth) truth->push_back(ball.p);
+      ball.Step(1.f / 30.f);
+    }
+    return ball.contacts_s;
+  };
+  // The first contact at the contact frame's time, and a little before and after it.
+  for (double offset_s : {-0.0015, -0.0008, -0.0003, -0.0002, -0.0001, 0.0, 0.0001, 0.0002, 0.0003}) {
+    const double t_c = contact_frame / 30.0 + offset_s;
+    float lo = 1.0f, hi = 1.4f;
+    for (int it = 0; it < 40; ++it) {
+      const float mid = 0.5f * (lo + hi);
+      (drop(mid, nullptr)[0] < t_c ? lo : hi) = mid;
+    }
+    std::vector<Eigen::Vector3f> truth;
+    const std::vector<double> contacts = drop(0.5f * (lo + hi), &truth);
+    ASSERT_NEAR(contacts[0], t_c, 2e-4);  // the simulation step
+    BallFilter f(Config());
+    BallState s;
+    for (int k = 0; k < 40; ++k) {
+      f.Update(Observe(truth[k], FrameUs(k), kBoth, k, 0.5f));
+      f.FillState(FrameUs(k), 200000, s);
+      ASSERT_TRUE(AllFinite(s)) << k;
+      if (k > contact_frame && k <= contact_frame + 6) {
+        // The next contact, ~0.6 s ahead, from the rebound's prior and its first frames.
+        ASSERT_TRUE(s.flags & kFlagHasBounce) << k;
+        EXPECT_NEAR((static_cast<double>(s.t_bounce_us) - 1e6) * 1e-6, contacts[1], 0.02)
+            << "frame " << k << ", contact " << offset_s << " s from the frame";
+      }
+    }
+    EXPECT_NEAR(f.bounce_factor(), b_true, 0.03f) << "contact " << offset_s << " s from the frame";
+  }
+}
+
 TEST(BallFilter, KickThatReversesDirectionIsFollowedWithin3Frames) {
   Sim ball{Eigen::Vector3f(-1.f, 3.f, kR), Eigen::Vector3f(2.f, 0.f, 0.f)};
   BallFilter f(Config());

@@ -691,11 +691,21 @@ uint16_t BallFilter::Update(const BallObservation& in) {
 
   Push(kept);
   const bool bounced = TryBounce(obs.t_us);
-  // Nominal at the new reference time: the current model moved forward.
+  // Nominal at the new reference time: the current model moved forward. A flight that took no
+  // bounce goes on as the arc the refit fits, through the floor if need be: a frame at the
+  // contact itself can fit it as well as the rebound, and a nominal past the rebound (as the
+  // prediction evolves it) sent the refit to a false minimum (bounce seed 139: vz -5.3 for -4.5
+  // m/s at the first contact, so b was fitted 0.64 for 0.74).
   if (fit_.ok && !bounced) {
     Eigen::Vector3f p1, v1;
     BallMode m1;
-    if (StateAt(obs.t_us, p1, v1, m1)) {
+    if (seg_.motion == Motion::kAir) {
+      Eigen::Vector3f a, adot;
+      const float dt = Seconds(obs.t_us, t_ref_us_);
+      Accel(Motion::kAir, fit_.x.tail<3>(), dt, a, adot);
+      fit_.x.head<3>() += fit_.x.tail<3>() * dt + a;
+      fit_.x.tail<3>() += adot;
+    } else if (StateAt(obs.t_us, p1, v1, m1)) {
       fit_.x.head<3>() = p1;
       fit_.x.tail<3>() = v1;
     }
