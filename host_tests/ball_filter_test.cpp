@@ -79,7 +79,7 @@ struct Sim {
 };
 
 BallRay RayTo(const Eigen::Vector3f& origin, const Eigen::Vector3f& p, uint8_t camera,
-              float sigma_rad, int k) {
+              float sigma_rad, int k, float noise_frac = 1.f) {
   BallRay r;
   r.origin = origin;
   Eigen::Vector3f d = (p - origin).normalized();
@@ -90,7 +90,7 @@ BallRay RayTo(const Eigen::Vector3f& origin, const Eigen::Vector3f& p, uint8_t c
   const Eigen::Vector3f e2 =
       Eigen::Vector3f(d.y() * e1.z() - d.z() * e1.y(), d.z() * e1.x() - d.x() * e1.z(),
                       d.x() * e1.y() - d.y() * e1.x());
-  const float a = sigma_rad * 1.732f;
+  const float a = sigma_rad * noise_frac * 1.732f;
   d = (d + e1 * (a * Noise(k, 3 * camera)) + e2 * (a * Noise(k, 3 * camera + 1))).normalized();
   r.dir = d;
   r.sigma_h_rad = r.sigma_v_rad = sigma_rad;
@@ -101,12 +101,12 @@ BallRay RayTo(const Eigen::Vector3f& origin, const Eigen::Vector3f& p, uint8_t c
 enum Cams { kBoth, kOmniOnly, kPerspOnly };
 
 BallObservation Observe(const Eigen::Vector3f& p, uint64_t t_us, Cams cams, int k,
-                        float scale = 1.f, float size_rel = 0.f) {
+                        float scale = 1.f, float size_rel = 0.f, float noise_frac = 1.f) {
   BallObservation o;
   o.t_us = t_us;
-  if (cams != kPerspOnly) o.rays[o.n_rays++] = RayTo(kOmni, p, 0, 0.004f * scale, k);
+  if (cams != kPerspOnly) o.rays[o.n_rays++] = RayTo(kOmni, p, 0, 0.004f * scale, k, noise_frac);
   if (cams != kOmniOnly) {
-    BallRay r = RayTo(kPersp, p, 1, 0.0015f * scale, k);
+    BallRay r = RayTo(kPersp, p, 1, 0.0015f * scale, k, noise_frac);
     if (size_rel > 0.f) {
       const float range = (p - kPersp).norm();
       r.range_m = range * (1.f + size_rel * Noise(k, 7));
@@ -388,7 +388,8 @@ TEST(BallFilter, AContactOnAFrameTimeGivesTheRightRestitution) {
     return ball.contacts_s;
   };
   // The first contact at the contact frame's time, and a little before and after it.
-  for (double offset_s : {-0.0015, -0.0008, -0.0003, -0.0002, -0.0001, 0.0, 0.0001, 0.0002, 0.0003}) {
+  for (double offset_s :
+       {-0.0015, -0.0008, -0.0003, -0.0002, -0.0001, 0.0, 0.0001, 0.0002, 0.0003}) {
     const double t_c = contact_frame / 30.0 + offset_s;
     float lo = 1.0f, hi = 1.4f;
     for (int it = 0; it < 40; ++it) {
@@ -448,8 +449,9 @@ TEST(BallFilter, BallThatStopsComesToRest) {
   EXPECT_LT((Eigen::Vector3f(s.px_m, s.py_m, s.pz_m) - ball.p).norm(), 0.02f);
 }
 
-TEST(BallFilter, UncertaintyCoversTheTrueErrorAbout68Percent) {
-  // Rolling and flying balls, rays with the stated noise: each axis' error within 1 sigma.
+// Rolling and flying balls: the fraction of axes whose error is within the reported 1 sigma, the
+// rays' noise `noise_frac` of what they state.
+float CoverageOfTheReportedSigma(float noise_frac) {
   int inside = 0, total = 0;
   for (int run = 0; run < 2; ++run) {
     Sim ball = run == 0 ? Sim{Eigen::Vector3f(-2.f, 4.f, kR), Eigen::Vector3f(1.5f, -0.5f, 0.f)}
@@ -457,7 +459,7 @@ TEST(BallFilter, UncertaintyCoversTheTrueErrorAbout68Percent) {
     BallFilter f(Config());
     BallState s;
     for (int k = 0; k < 25; ++k) {
-      f.Update(Observe(ball.p, FrameUs(k), kBoth, 100 * run + k, 2.f));
+      f.Update(Observe(ball.p, FrameUs(k), kBoth, 100 * run + k, 2.f, 0.f, noise_frac));
       f.FillState(FrameUs(k), 0, s);
       if (k >= 5) {
         const Eigen::Vector3f e = Pos(s) - ball.p;
@@ -471,9 +473,22 @@ TEST(BallFilter, UncertaintyCoversTheTrueErrorAbout68Percent) {
       ball.Step(1.f / 30.f);
     }
   }
-  const float frac = static_cast<float>(inside) / static_cast<float>(total);
+  return static_cast<float>(inside) / static_cast<float>(total);
+}
+
+TEST(BallFilter, UncertaintyCoversTheTrueErrorAbout68Percent) {
+  const float frac = CoverageOfTheReportedSigma(1.f);  // rays with the stated noise
   EXPECT_GT(frac, 0.5f);
   EXPECT_LT(frac, 0.9f);
+}
+
+// The configured ray noise is wider than the detections' (1.5-2x on renders, for robustness):
+// the reported sigma follows the residuals down, where the model's own covered every error
+// (1.0 here). The 8 rows of prior at the model's noise keep the first frames wider (0.89).
+TEST(BallFilter, UncertaintyFollowsTheResidualsWhenTheRaysAreQuieterThanStated) {
+  const float frac = CoverageOfTheReportedSigma(0.5f);
+  EXPECT_GT(frac, 0.55f);
+  EXPECT_LT(frac, 0.93f);
 }
 
 TEST(BallFilter, CoastingGrowsTheUncertaintyThenTheTrackIsLost) {

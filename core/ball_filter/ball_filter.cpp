@@ -23,6 +23,7 @@ constexpr float kMaxUpwardDirZ = 0.7f;         // rays steeper than ~44 deg up c
 constexpr float kRestSpeedMps = 0.02f;         // slower: at rest (no rolling deceleration)
 constexpr float kHuberSigma = 3.f;             // residuals beyond this many sigmas count linearly
 constexpr float kStopCheckSpeedMps = 0.5f;  // a rolling fit this slow is checked for having stopped
+constexpr float kMinQuietScale = 0.25f;     // the reported sigma at least half the noise model's
 constexpr float kOffSigma = 3.f;  // a frame this far from the prediction may start a segment
 constexpr int kRestFrames = 4;    // frames that must agree with a ball at rest
 constexpr float kUnobservableGateRad = 0.15f;  // direction gate while the range is unknown
@@ -317,6 +318,13 @@ BallFilter::Fit BallFilter::Solve(const Segment& seg, const Vec6& nominal, uint6
   }
   const int dof = rows - (seg.motion == Motion::kAir ? 6 : seg.at_rest ? 2 : 4);
   if (dof > 0 && f.chi2 > static_cast<float>(dof)) f.cov *= f.chi2 / static_cast<float>(dof);
+  // Quieter residuals than the model: a variance factor, pulled towards 1 by kPriorDof rows at
+  // the model's noise so a few lucky frames do not claim precision.
+  constexpr float kPriorDof = 8.f;
+  if (dof > 0) {
+    f.quiet_scale = std::clamp((f.chi2 + kPriorDof) / (static_cast<float>(dof) + kPriorDof),
+                               kMinQuietScale, 1.f);
+  }
   f.ok = true;
   return f;
 }
@@ -617,7 +625,7 @@ float BallFilter::GateRays(const BallObservation& obs, BallObservation& kept) co
   Eigen::Vector3f pp, vp, sp;
   BallMode mp;
   StateAt(obs.t_us, pp, vp, mp);
-  SigmaAt(obs.t_us, sp);
+  SigmaAt(obs.t_us, sp, false);
   const float dt = Seconds(obs.t_us, t_ref_us_);
   kept.t_us = obs.t_us;
   float off = 0;
@@ -997,13 +1005,15 @@ bool BallFilter::StateAt(uint64_t t_us, Eigen::Vector3f& p_m, Eigen::Vector3f& v
   return true;
 }
 
-bool BallFilter::SigmaAt(uint64_t t_us, Eigen::Vector3f& sigma_m) const {
+bool BallFilter::SigmaAt(uint64_t t_us, Eigen::Vector3f& sigma_m, bool reported) const {
   if (!tracking_ || !fit_.ok) return false;
   const float tau = Seconds(t_us, t_ref_us_);
   const float q = cfg_.accel_noise_mps2 * cfg_.accel_noise_mps2;
+  const float k = reported ? fit_.quiet_scale : 1.f;
   for (int j = 0; j < 3; ++j) {
-    const float var = fit_.cov(j, j) + 2.f * tau * fit_.cov(j, 3 + j) +
-                      tau * tau * fit_.cov(3 + j, 3 + j) + q * std::fabs(tau * tau * tau) / 3.f;
+    const float var =
+        k * (fit_.cov(j, j) + 2.f * tau * fit_.cov(j, 3 + j) + tau * tau * fit_.cov(3 + j, 3 + j)) +
+        q * std::fabs(tau * tau * tau) / 3.f;
     sigma_m(j) = std::sqrt(std::max(var, 0.f));
   }
   return true;

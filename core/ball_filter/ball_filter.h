@@ -83,8 +83,10 @@ class BallFilter {
 
   /// Model state at any time (past or future, bounces included); false when there is no track.
   bool StateAt(uint64_t t_us, Eigen::Vector3f& p_m, Eigen::Vector3f& v_mps, BallMode& mode) const;
-  /// 1-sigma position uncertainty per axis at t_us (grows while coasting).
-  bool SigmaAt(uint64_t t_us, Eigen::Vector3f& sigma_m) const;
+  /// 1-sigma position uncertainty per axis at t_us (grows while coasting). `reported`: as the
+  /// state reports it, the fit's covariance scaled down when its residuals are smaller than the
+  /// ray noise model says (calibrated on renders); false: the model's own (gating).
+  bool SigmaAt(uint64_t t_us, Eigen::Vector3f& sigma_m, bool reported = true) const;
   /// Predicted floor contacts strictly after t_us (time, x, y), in order; returns the count.
   int ContactsAfter(uint64_t t_us, uint64_t* t_out, float* x_out, float* y_out, int max) const;
   /// Fills position, velocity, sigma, mode, found, coasting/lost flags, next bounce and the
@@ -137,6 +139,9 @@ class BallFilter {
     Eigen::Matrix<float, 6, 6> cov = Eigen::Matrix<float, 6, 6>::Zero();
     float chi2 = 0;
     int rows = 0;
+    // (chi2 + 8) / (dof + 8), at most 1: the residuals' own variance factor where
+    // they are quieter than the (deliberately wide) ray noise model; the state reports it.
+    float quiet_scale = 1;
     bool ambiguous = false;  // another flight explains the rays nearly as well elsewhere
   };
 
