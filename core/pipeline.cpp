@@ -151,6 +151,39 @@ OmniFeatureRays FeatureRays(const OmniCalibration& cal, const OmniScanConfig& sc
   return f;
 }
 
+// The image of a sphere in the omni camera is not centred on the image of its centre: the mirror
+// maps elevation e to image radius rho(e), stretching the ball radially where rho'' > 0, and the
+// ring of azimuths widens outward. To second order in the ball's angular radius a, its centroid
+// lies outward by (a^2 / 4) (1.5 rho'' + rho'^2 / rho - rho / (2 cos^2 e)): 0.2 px at 2 m and
+// 0.3-0.6 px within 1 m on the reference rig (renderer: 0.19 and 0.33-1.15 px). rho' and rho''
+// come from the calibration's rays either side of the centroid (+-6 px along the radius: the
+// distance map is piecewise linear, so its curvature is taken over a span, not at a knot).
+void OmniSphereCentre(const OmniCalibration& cal, float radius_px, float& u, float& v) {
+  constexpr float kStepPx = 6.f;
+  const float du = u - cal.center_u, dv = v - cal.center_v;
+  const float rho = std::hypot(du, dv);
+  if (!(rho > 4.f * kStepPx) || !(radius_px > 0.f)) return;
+  const float ex = du / rho, ey = dv / rho;
+  float e[3];
+  for (int i = 0; i < 3; ++i) {
+    const float s = static_cast<float>(i - 1) * kStepPx;
+    const auto ray = OmniPixelToRayExtended(cal, u + s * ex, v + s * ey);
+    if (!ray.ok()) return;
+    e[i] = std::atan2(ray->dir.z(), std::hypot(ray->dir.x(), ray->dir.y()));
+  }
+  const float e1 = (e[2] - e[0]) / (2.f * kStepPx);                   // de / drho
+  const float e2 = (e[2] - 2.f * e[1] + e[0]) / (kStepPx * kStepPx);  // d2e / drho2
+  if (!(std::fabs(e1) > 1e-6f)) return;
+  const float r1 = 1.f / e1, r2 = -e2 / (e1 * e1 * e1);  // drho / de, d2rho / de2
+  const float c2 = std::max(std::cos(e[1]) * std::cos(e[1]), 0.05f);
+  // The ball's area pi a^2 |rho'| rho / cos e in the image is pi radius_px^2.
+  const float a2 = radius_px * radius_px * std::sqrt(c2) / (std::fabs(r1) * rho);
+  const float shift = std::clamp(0.25f * a2 * (1.5f * r2 + r1 * r1 / rho - 0.5f * rho / c2),
+                                 -0.5f * radius_px, 0.5f * radius_px);
+  u -= shift * ex;
+  v -= shift * ey;
+}
+
 // How far a region's centroid may be off when its size disagrees with the predicted silhouette.
 // Smaller: the visible part of a partly hidden ball, off by up to the missing radius. Larger (past
 // the ~10 % that blur and a prediction's range error give): the ball merged with something
@@ -624,7 +657,9 @@ Pipeline::CameraRays Pipeline::DetectionRays(const FrameInput& in, BallState& ou
                           out.persp.v_px + pr > static_cast<float>(in.persp.height) - 1.5f);
   if (out.omni.found) {
     out.flags |= kFlagSeenOmni;
-    auto ray = OmniPixelToRayExtended(cal.omni, out.omni.u_px, out.omni.v_px);
+    float cu = out.omni.u_px, cv = out.omni.v_px;
+    if (!rays.omni_cut) OmniSphereCentre(cal.omni, out.omni.radius_px, cu, cv);
+    auto ray = OmniPixelToRayExtended(cal.omni, cu, cv);
     if (ray.ok()) {
       rays.omni = *ray;
       rays.have_omni = true;

@@ -374,7 +374,11 @@ TEST(PipelineSim, BounceIsTrackedAndPredicted) {
     }
   }
   EXPECT_TRUE(bouncing);
-  EXPECT_LE(cli::Median(state_err), 0.04);
+  // The ball at 2 m within a centimetre: the omni ray goes through the sphere's centre, not the
+  // centroid of its image (0.2 px outward here; 1.72 / 2.61 cm median / p90 before).
+  EXPECT_LE(cli::Median(state_err), 0.01);
+  std::sort(state_err.begin(), state_err.end());
+  EXPECT_LE(state_err[state_err.size() * 9 / 10], 0.015);
   ASSERT_GT(pred_err.size(), 40u);
   EXPECT_LE(cli::Median(pred_err), 0.05);
 }
