@@ -60,6 +60,10 @@ void OmniRaySigma(const OmniCalibration& cal, const BallDetection& det, const Ra
     }
   }
   out.sigma_v_rad = s_px * std::clamp(per_px, 1e-4f, 0.05f);
+  const float b_px = config.omni_bias_px + extra_px;
+  out.bias_h_rad =
+      std::hypot(b_px * std::max(horiz, 0.05f) / rho, config.omni_azimuth_bias_rad * horiz);
+  out.bias_v_rad = b_px * std::clamp(per_px, 1e-4f, 0.05f);
 }
 
 // A sphere's outline is the cone of rays tangent to it, about the direction to its centre. Near
@@ -694,16 +698,20 @@ void Pipeline::PerspRayNoiseAndRange(const BallDetection& det, const Ray& ray, b
   // A fitted circle has the whole radius; its centre is as good as the arc it spans.
   const bool circle = det.arc_sectors > 0;
   const float hidden_px = !circle ? SizeMisfitPx(pred_persp_, det.radius_px) : 0.f;
-  const float arc_px = circle ? 0.5f + 0.25f * det.radius_px *
-                                           static_cast<float>(kCircleSectors - det.arc_sectors) /
-                                           static_cast<float>(kCircleSectors)
-                              : 0.f;
+  // The arc a circle misses, like a hidden or cut part, is the same frame after frame: shared.
+  const float missing_arc_px = circle ? 0.25f * det.radius_px *
+                                            static_cast<float>(kCircleSectors - det.arc_sectors) /
+                                            static_cast<float>(kCircleSectors)
+                                      : 0.f;
   // A ball cut by the image border whose arc gave a circle has that circle's centre and size.
   const bool cut_centroid = cut && !circle;
-  const float s = (config_.persp_sigma_px + config_.persp_sigma_per_radius * det.radius_px +
-                   (cut_centroid ? 0.5f * det.radius_px : 0.f) + hidden_px + arc_px) /
-                  std::max(cal.persp.fx, 1.0f);
-  out.sigma_h_rad = out.sigma_v_rad = s;
+  const float shape_px = (cut_centroid ? 0.5f * det.radius_px : 0.f) + hidden_px + missing_arc_px;
+  const float fx = std::max(cal.persp.fx, 1.0f);
+  out.sigma_h_rad = out.sigma_v_rad =
+      (config_.persp_sigma_px + config_.persp_sigma_per_radius * det.radius_px +
+       (circle ? 0.5f : 0.f) + shape_px) /
+      fx;
+  out.bias_h_rad = out.bias_v_rad = (config_.persp_bias_px + shape_px) / fx;
   if (det.radius_px > 0.5f && !cut_centroid) {
     auto rim = PerspPixelToRay(cal.persp, det.u_px + det.radius_px, det.v_px);
     if (rim.ok()) {

@@ -48,6 +48,12 @@ struct PipelineConfig {
   float omni_sigma_px = 0.3f, omni_sigma_per_radius = 0.02f;
   float omni_azimuth_sigma_rad = 0.006f;
   float persp_sigma_px = 0.3f, persp_sigma_per_radius = 0.01f;
+  // The part of a ray's error that neighbouring frames share, which the filter's window cannot
+  // average away (reported sigma only): a base centroid bias (shading, the soft centroid's
+  // unmixing), the occlusion, cut and misfit terms above in full, and the omni azimuth's
+  // calibration error (1-2 mrad, fixed per direction).
+  float omni_bias_px = 0.15f, persp_bias_px = 0.15f;
+  float omni_azimuth_bias_rad = 0.0015f;
   float size_range_rel = 0.05f;
   BallFinderConfig finder;  // ball choice and attention (core/detect), both cameras
   // Circles fitted to persp outlines that are not clean discs (a ball merged with a red box or

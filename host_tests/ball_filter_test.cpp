@@ -491,6 +491,78 @@ TEST(BallFilter, UncertaintyFollowsTheResidualsWhenTheRaysAreQuieterThanStated) 
   EXPECT_LT(frac, 0.93f);
 }
 
+// A partly hidden ball at rest: every frame's centroid is off to the same side (omni 3 mrad,
+// persp 2 mrad sideways), which no number of frames averages away. Stated as the rays' shared
+// error, it stays in the reported sigma; unstated, the sigma shrinks with the window below the
+// error.
+TEST(BallFilter, AnErrorEveryFrameSharesStaysInTheReportedSigma) {
+  const Eigen::Vector3f p(0.3f, 3.f, kR);
+  auto run = [&](bool stated, Eigen::Vector3f& err, Eigen::Vector3f& sigma) {
+    BallFilter f(Config());
+    BallState s;
+    for (int k = 0; k < 30; ++k) {
+      BallObservation o = Observe(p, FrameUs(k), kBoth, k, 1.f, 0.f, 0.2f);
+      for (int i = 0; i < o.n_rays; ++i) {
+        BallRay& r = o.rays[i];
+        const float shift = r.camera == 0 ? 0.003f : 0.002f;
+        const Eigen::Vector3f side = Eigen::Vector3f(-r.dir.y(), r.dir.x(), 0.f).normalized();
+        r.dir = (r.dir + shift * side).normalized();
+        if (stated) r.bias_h_rad = r.bias_v_rad = shift;
+      }
+      f.Update(o);
+      f.FillState(FrameUs(k), 0, s);
+    }
+    err = Pos(s) - p;
+    sigma = Eigen::Vector3f(s.sigma_x_m, s.sigma_y_m, s.sigma_z_m);
+  };
+  Eigen::Vector3f err, sigma, err0, sigma0;
+  run(true, err, sigma);
+  run(false, err0, sigma0);
+  EXPECT_NEAR(err.x(), err0.x(), 1e-4f);  // the estimate itself is the same
+  EXPECT_GT(std::fabs(err.x()), 0.005f);  // ~7 mm sideways at 3 m
+  EXPECT_GT(std::fabs(err0.x()), 2.f * sigma0.x());
+  EXPECT_LT(std::fabs(err.x()), 1.5f * sigma.x());
+  EXPECT_LT(sigma.x(), 3.f * std::fabs(err.x()));  // covered, not swamped
+  // A shared error that is not a number, or larger than the ray's whole error, is bounded.
+  BallFilter f(Config());
+  BallState s;
+  for (int k = 0; k < 10; ++k) {
+    BallObservation o = Observe(p, FrameUs(k), kBoth, k);
+    o.rays[0].bias_h_rad = std::nanf("");
+    o.rays[1].bias_v_rad = 1e30f;
+    EXPECT_EQ(f.Update(o), 0) << k;
+    f.FillState(FrameUs(k), 0, s);
+    ASSERT_TRUE(AllFinite(s)) << k;
+  }
+  EXPECT_LT(s.sigma_z_m, 0.05f);
+}
+
+// A rolling ball that slows by 0.9 m/s^2 where the model says 0.6, seen at 10 Hz (a window of
+// 1.1 s): the fit's end is off by about 1 cm, twice the sigma from the rays alone; the unmodelled
+// acceleration's a T^2 / 12 puts it inside. (A larger misfit starts a new, shorter segment.)
+TEST(BallFilter, AnUnmodelledDecelerationIsInTheReportedSigma) {
+  auto run = [](float model_accel, float& err, float& sigma) {
+    BallFilterConfig c = Config();
+    c.model_accel_mps2 = model_accel;
+    Sim ball{Eigen::Vector3f(-1.5f, 3.f, kR), Eigen::Vector3f(1.5f, 0.f, 0.f)};
+    ball.rolling_decel = 0.9f;
+    BallFilter f(c);
+    BallState s;
+    for (int k = 0; k < 12; ++k) {
+      f.Update(Observe(ball.p, FrameUs(3 * k), kBoth, k, 1.f, 0.f, 0.2f));
+      f.FillState(FrameUs(3 * k), 0, s);
+      if (k < 11) ball.Step(0.1f);
+    }
+    err = std::fabs(s.x_m - ball.p.x());
+    sigma = s.sigma_x_m;
+  };
+  float err, sigma, err0, sigma0;
+  run(0.1f, err, sigma);
+  run(0.f, err0, sigma0);
+  EXPECT_GT(err0, 1.5f * sigma0);
+  EXPECT_LT(err, 1.5f * sigma);
+}
+
 TEST(BallFilter, CoastingGrowsTheUncertaintyThenTheTrackIsLost) {
   Sim ball{Eigen::Vector3f(0.f, 3.f, kR), Eigen::Vector3f(1.f, 0.f, 0.f)};
   BallFilter f(Config());

@@ -23,7 +23,7 @@ constexpr float kMaxUpwardDirZ = 0.7f;         // rays steeper than ~44 deg up c
 constexpr float kRestSpeedMps = 0.02f;         // slower: at rest (no rolling deceleration)
 constexpr float kHuberSigma = 3.f;             // residuals beyond this many sigmas count linearly
 constexpr float kStopCheckSpeedMps = 0.5f;  // a rolling fit this slow is checked for having stopped
-constexpr float kMinQuietScale = 0.25f;     // the reported sigma at least half the noise model's
+constexpr float kMinQuietScale = 0.0625f;   // white part: at least a quarter of the model's sigma
 constexpr float kOffSigma = 3.f;  // a frame this far from the prediction may start a segment
 constexpr int kRestFrames = 4;    // frames that must agree with a ball at rest
 constexpr float kUnobservableGateRad = 0.15f;  // direction gate while the range is unknown
@@ -51,7 +51,8 @@ bool Finite(const Eigen::Vector3f& v) {
 // J^T W r (g). Angular, not metric: a metric residual would let the fit shrink towards the camera
 // centre, where every ray of one camera meets. Returns chi^2.
 float RayTerms(const Eigen::Vector3f& x, const Eigen::Vector3f& d, float sigma_h, float sigma_v,
-               float range, float range_sigma, Eigen::Matrix3f& m, Eigen::Vector3f& g, int& rows) {
+               float range, float range_sigma, Eigen::Matrix3f& m, Eigen::Vector3f& g, int& rows,
+               Eigen::Vector3f* wjac = nullptr) {
   Eigen::Vector3f e1 = d.cross(Eigen::Vector3f::UnitZ());
   const float n1 = e1.norm();
   if (n1 < 1e-3f) {
@@ -82,6 +83,7 @@ float RayTerms(const Eigen::Vector3f& x, const Eigen::Vector3f& d, float sigma_h
     m += w * jac * jac.transpose();
     g += w * res * jac;
     chi2 += w * res * res;
+    if (wjac != nullptr) wjac[j] = w * jac;
   }
   rows = 2;
   if (range > 0.f && range_sigma > 0.f) {
@@ -168,8 +170,8 @@ void BallFilter::Push(const BallObservation& obs) {
   s.n = static_cast<uint8_t>(obs.n_rays);
   for (int i = 0; i < obs.n_rays; ++i) {
     const BallRay& r = obs.rays[i];
-    s.rays[i] =
-        StoredRay{r.dir, r.sigma_h_rad, r.sigma_v_rad, r.range_m, r.range_sigma_m, r.camera};
+    s.rays[i] = StoredRay{r.dir,           r.sigma_h_rad, r.sigma_v_rad, r.range_m,
+                          r.range_sigma_m, r.bias_h_rad,  r.bias_v_rad,  r.camera};
   }
   head_ = (head_ + 1) % kMaxWindow;
   count_ = std::min(count_ + 1, cfg_.max_window);
@@ -267,9 +269,11 @@ BallFilter::Fit BallFilter::Solve(const Segment& seg, const Vec6& nominal, uint6
   constrain(x);
   Mat6 h;
   int rows = 0;
+  Eigen::Matrix<float, 6, 4> bias_g;  // the gradient's response to each shared ray error
   for (int it = 0; it < iterations; ++it) {
     h.setZero();
     Vec6 g = Vec6::Zero();
+    bias_g.setZero();
     rows = 0;
     const Eigen::Vector3f p0 = x.head<3>(), v0 = x.tail<3>();
     for (int i = 0; i < count_; ++i) {
@@ -277,6 +281,7 @@ BallFilter::Fit BallFilter::Solve(const Segment& seg, const Vec6& nominal, uint6
       if (s.t_us < seg.start_us) break;
       if (s.t_us > end_us) continue;
       const float tau = Seconds(s.t_us, t_ref_us_);
+      if (s.n > 0) f.span_s = std::max(f.span_s, -tau);
       Eigen::Vector3f a, dv;
       Accel(seg.motion, v0, tau, a, dv);
       const Eigen::Vector3f p = p0 + v0 * tau + a;
@@ -285,15 +290,21 @@ BallFilter::Fit BallFilter::Solve(const Segment& seg, const Vec6& nominal, uint6
         Eigen::Matrix3f m;
         Eigen::Vector3f gp;
         int nr = 0;
+        Eigen::Vector3f wjac[2];
         const float chi = RayTerms(p - origin_[r.camera], r.dir, r.sigma_h, r.sigma_v, r.range,
-                                   r.range_sigma, m, gp, nr);
+                                   r.range_sigma, m, gp, nr, wjac);
         // Huber: one wrong ray bends the fit only linearly.
         const float z = std::sqrt(chi / static_cast<float>(nr));
-        if (z > kHuberSigma) {
-          m *= kHuberSigma / z;
-          gp *= kHuberSigma / z;
-        }
+        const float huber = z > kHuberSigma ? kHuberSigma / z : 1.f;
+        m *= huber;
+        gp *= huber;
         AddTerm(tau, m, gp, h, g);
+        const float b[2] = {r.bias_h, r.bias_v};
+        for (int j = 0; j < 2; ++j) {
+          const Eigen::Vector3f c = huber * b[j] * wjac[j];
+          bias_g.col(2 * r.camera + j).head<3>() += c;
+          bias_g.col(2 * r.camera + j).tail<3>() += tau * c;
+        }
         rows += nr;
       }
     }
@@ -309,7 +320,8 @@ BallFilter::Fit BallFilter::Solve(const Segment& seg, const Vec6& nominal, uint6
   Mat6 l;
   if (!Cholesky6(h, l)) return f;
   f.cov = CholeskyInverse(l);
-  if (!f.x.allFinite() || !f.cov.allFinite()) return f;
+  f.bias = f.cov * bias_g;
+  if (!f.x.allFinite() || !f.cov.allFinite() || !f.bias.allFinite()) return f;
   f.rows = rows;
   for (int i = 0; i < count_; ++i) {
     if (Newest(i).t_us < seg.start_us) break;
@@ -615,6 +627,11 @@ void BallFilter::ValidRays(const BallObservation& in, BallObservation& obs) cons
           ray.range_sigma_m > 0.f)) {
       ray.range_m = ray.range_sigma_m = 0.f;
     }
+    // A shared error no larger than the ray's own; one that is not a number is none.
+    ray.bias_h_rad =
+        std::isfinite(ray.bias_h_rad) ? std::clamp(ray.bias_h_rad, 0.f, ray.sigma_h_rad) : 0.f;
+    ray.bias_v_rad =
+        std::isfinite(ray.bias_v_rad) ? std::clamp(ray.bias_v_rad, 0.f, ray.sigma_v_rad) : 0.f;
     obs.rays[obs.n_rays++] = ray;
   }
 }
@@ -1010,10 +1027,15 @@ bool BallFilter::SigmaAt(uint64_t t_us, Eigen::Vector3f& sigma_m, bool reported)
   const float tau = Seconds(t_us, t_ref_us_);
   const float q = cfg_.accel_noise_mps2 * cfg_.accel_noise_mps2;
   const float k = reported ? fit_.quiet_scale : 1.f;
+  const float model = cfg_.model_accel_mps2 * fit_.span_s * fit_.span_s / 12.f;
   for (int j = 0; j < 3; ++j) {
-    const float var =
+    float var =
         k * (fit_.cov(j, j) + 2.f * tau * fit_.cov(j, 3 + j) + tau * tau * fit_.cov(3 + j, 3 + j)) +
         q * std::fabs(tau * tau * tau) / 3.f;
+    if (reported) {
+      var += (fit_.bias.row(j) + tau * fit_.bias.row(3 + j)).squaredNorm();
+      if (!seg_.at_rest && (j < 2 || seg_.motion == Motion::kAir)) var += model * model;
+    }
     sigma_m(j) = std::sqrt(std::max(var, 0.f));
   }
   return true;

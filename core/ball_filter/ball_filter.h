@@ -41,8 +41,11 @@ struct BallFilterConfig {
   float restart_chi2 = 25.f;       // chi^2 gain that makes frames off the model a new segment
   float roll_tolerance_m = 0.05f;  // a flying fit this close to the floor is rolling
   float accel_noise_mps2 = 1.5f;   // unmodelled acceleration: grows the uncertainty when coasting
-  uint32_t coast_us = 500000;      // prediction only, then lost
-  float max_range_m = 25.f;        // beyond: far outside any field
+  // A constant acceleration the model does not have (rolling resistance off its value, spin)
+  // moves the end of a window fit of span T by a T^2 / 12: part of the reported sigma.
+  float model_accel_mps2 = 0.1f;
+  uint32_t coast_us = 500000;  // prediction only, then lost
+  float max_range_m = 25.f;    // beyond: far outside any field
   float max_height_m = 6.f;
   float unobservable_sigma_m = 0.5f;  // position sigma above this is flagged kFlagUnobservable
   float robot_radius_m = 0.25f;       // a ray meeting the floor inside this radius sees the robot
@@ -54,6 +57,9 @@ struct BallRay {
   Eigen::Vector3f dir = Eigen::Vector3f::UnitY();  // unit
   // 1-sigma angular error across the ray: horizontal (azimuth) and in the vertical plane.
   float sigma_h_rad = 0.002f, sigma_v_rad = 0.002f;
+  // The part of that error neighbouring frames share (the same occluder, border cut, shading,
+  // calibration), 1-sigma: the window cannot average it down. It widens the reported sigma only.
+  float bias_h_rad = 0, bias_v_rad = 0;
   // A range cue along the ray (apparent size): > 0 when present, with its 1-sigma.
   float range_m = 0, range_sigma_m = 0;
   uint8_t camera = 0;  // 0 omni, 1 perspective (origins are per camera)
@@ -103,7 +109,7 @@ class BallFilter {
  private:
   struct StoredRay {
     Eigen::Vector3f dir;
-    float sigma_h, sigma_v, range, range_sigma;
+    float sigma_h, sigma_v, range, range_sigma, bias_h, bias_v;
     uint8_t camera;
   };
   struct Stored {
@@ -142,6 +148,10 @@ class BallFilter {
     // (chi2 + 8) / (dof + 8), at most 1: the residuals' own variance factor where
     // they are quieter than the (deliberately wide) ray noise model; the state reports it.
     float quiet_scale = 1;
+    // The state's response (p, v at t_ref) to each camera's shared angular error, 1-sigma
+    // (columns: omni h, omni v, persp h, persp v): the reported covariance adds bias bias^T.
+    Eigen::Matrix<float, 6, 4> bias = Eigen::Matrix<float, 6, 4>::Zero();
+    float span_s = 0;        // from the oldest frame fitted to t_ref
     bool ambiguous = false;  // another flight explains the rays nearly as well elsewhere
   };
 
