@@ -3,6 +3,8 @@
 // a rendered sequence that finds the ball with the taught table.
 #include "tools/ballvision/lut_teach.h"
 
+#include "core/color_lut/color_teach.h"
+
 #include <gtest/gtest.h>
 
 #include <sys/stat.h>
@@ -48,6 +50,32 @@ TEST(LutTeachTest, FitCoversTheTaughtBallFromShadeToLightAndNothingGrey) {
   const Yuv grey = FromRgb(120, 120, 120), white = FromRgb(230, 230, 230);
   EXPECT_FALSE(InBallColorModel(m, grey.y, grey.u, grey.v));
   EXPECT_FALSE(InBallColorModel(m, white.y, white.u, white.v));
+}
+
+// A click teaches a near ball's inside, all strongly coloured (relative chroma ~0.6-0.9 here).
+// The same ball far away is a few pixels, all edge, mixed with the carpet: its chroma is lower,
+// so the taught floor stays at the start model's (lob 173 lost its far omni ball with 0.40).
+TEST(LutTeachTest, TheChromaFloorsNeverRiseAboveTheStartModels) {
+  std::vector<Yuv> ball;
+  for (int i = 0; i < 2000; ++i) {
+    const double k = 0.4 + 0.5 * (i % 100) / 100.0;
+    ball.push_back(FromRgb(250 * k, 60 * k, 10 * k));
+  }
+  const BallColorModel start;
+  BallColorModel m;
+  std::string why;
+  ASSERT_TRUE(FitBallColorModel(ball, start, m, why)) << why;
+  EXPECT_LE(m.chroma_min, start.chroma_min);
+  EXPECT_LE(m.chroma_min_bright, start.chroma_min_bright);
+  // An edge pixel at the ball's hue with a third of its chroma (relative chroma ~0.3).
+  const Yuv inside = FromRgb(200, 48, 8);
+  const Yuv mixed = {inside.y, static_cast<uint8_t>(128 + (inside.u - 128) / 3),
+                     static_cast<uint8_t>(128 + (inside.v - 128) / 3)};
+  ASSERT_LT(RelativeChroma(mixed), 0.35f);
+  ASSERT_GT(RelativeChroma(mixed), start.chroma_min);
+  EXPECT_TRUE(InBallColorModel(m, mixed.y, mixed.u, mixed.v))
+      << "chroma " << RelativeChroma(mixed) << " hue " << HueDeg(mixed) << " floor " << m.chroma_min
+      << " window " << m.hue_min_deg << ".." << m.hue_max_deg;
 }
 
 TEST(LutTeachTest, FitRefusesTooFewOrGreyPixels) {

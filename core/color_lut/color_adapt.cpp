@@ -107,7 +107,9 @@ void ColorAdapter::Step() {
   frames_since_refit_ = 0;
   if (ball_.count() >= config_.min_pixels) {
     BallColorModel fitted;
-    bool ok = ball_.Fit(model_, fitted).ok();
+    // From the start model, not the adapted one: Fit's floors only go down from its start, and
+    // from the adapted model they would ratchet down with every refit.
+    bool ok = ball_.Fit(start_, fitted).ok();
     if (ok) {
       fitted = Union(start_, fitted);
       ok = ValidateBallColorModel(fitted).ok();  // a window over 170 deg: keep the old model

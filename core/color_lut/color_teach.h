@@ -38,7 +38,7 @@ class BallColorStats {
 
   /// The model with these pixels' hue (central 96 % around their circular mean, 4 deg margin),
   /// relative chroma floors (0.85 x the 3rd percentile below / above the bright knee), ceiling
-  /// (1.3 x the 99.5th percentile) and luma floor (never above the start's); the rest from
+  /// (1.3 x the 99.5th percentile) and luma floor (floors never above the start's); the rest from
   /// `start`. kFailedPrecondition naming the reason: fewer than 100 pixels, or nearly grey.
   Status Fit(const BallColorModel& start, BallColorModel& out) const;
 
