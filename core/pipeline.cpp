@@ -49,8 +49,7 @@ void OmniRaySigma(const OmniCalibration& cal, const BallDetection& det, const Ra
   const float rho = std::max(std::hypot(du, dv), 1.0f);
   const float s_px = config.omni_sigma_px + config.omni_sigma_per_radius * det.radius_px + extra_px;
   const float horiz = std::hypot(ray.dir.x(), ray.dir.y());
-  const float s_az = s_px * std::max(horiz, 0.05f) / rho;
-  out.sigma_h_rad = std::hypot(s_az, config.omni_azimuth_sigma_rad * horiz);
+  const float az_per_px = std::max(horiz, 0.05f) / rho;
   float per_px = 0.01f;  // fallback: ~0.6 deg per pixel
   for (const float step : {-1.0f, 1.0f}) {
     auto n = OmniPixelToRayExtended(cal, det.u_px + step * du / rho, det.v_px + step * dv / rho);
@@ -59,11 +58,12 @@ void OmniRaySigma(const OmniCalibration& cal, const BallDetection& det, const Ra
       break;
     }
   }
-  out.sigma_v_rad = s_px * std::clamp(per_px, 1e-4f, 0.05f);
+  const float el_per_px = std::clamp(per_px, 1e-4f, 0.05f);
+  out.sigma_h_rad = std::hypot(s_px * az_per_px, config.omni_azimuth_sigma_rad * horiz);
+  out.sigma_v_rad = s_px * el_per_px;
   const float b_px = config.omni_bias_px + extra_px;
-  out.bias_h_rad =
-      std::hypot(b_px * std::max(horiz, 0.05f) / rho, config.omni_azimuth_bias_rad * horiz);
-  out.bias_v_rad = b_px * std::clamp(per_px, 1e-4f, 0.05f);
+  out.bias_h_rad = std::hypot(b_px * az_per_px, config.omni_azimuth_bias_rad * horiz);
+  out.bias_v_rad = b_px * el_per_px;
 }
 
 // A sphere's outline is the cone of rays tangent to it, about the direction to its centre. Near

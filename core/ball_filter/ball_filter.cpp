@@ -271,6 +271,8 @@ BallFilter::Fit BallFilter::Solve(const Segment& seg, const Vec6& nominal, uint6
   int rows = 0;
   Eigen::Matrix<float, 6, 4> bias_g;  // the gradient's response to each shared ray error
   for (int it = 0; it < iterations; ++it) {
+    // The covariance comes from the last iteration's normal matrix, and so does its bias part.
+    const bool last = it + 1 == iterations;
     h.setZero();
     Vec6 g = Vec6::Zero();
     bias_g.setZero();
@@ -281,7 +283,7 @@ BallFilter::Fit BallFilter::Solve(const Segment& seg, const Vec6& nominal, uint6
       if (s.t_us < seg.start_us) break;
       if (s.t_us > end_us) continue;
       const float tau = Seconds(s.t_us, t_ref_us_);
-      if (s.n > 0) f.span_s = std::max(f.span_s, -tau);
+      if (last && s.n > 0) f.span_s = std::max(f.span_s, -tau);
       Eigen::Vector3f a, dv;
       Accel(seg.motion, v0, tau, a, dv);
       const Eigen::Vector3f p = p0 + v0 * tau + a;
@@ -292,7 +294,7 @@ BallFilter::Fit BallFilter::Solve(const Segment& seg, const Vec6& nominal, uint6
         int nr = 0;
         Eigen::Vector3f wjac[2];
         const float chi = RayTerms(p - origin_[r.camera], r.dir, r.sigma_h, r.sigma_v, r.range,
-                                   r.range_sigma, m, gp, nr, wjac);
+                                   r.range_sigma, m, gp, nr, last ? wjac : nullptr);
         // Huber: one wrong ray bends the fit only linearly.
         const float z = std::sqrt(chi / static_cast<float>(nr));
         const float huber = z > kHuberSigma ? kHuberSigma / z : 1.f;
@@ -300,7 +302,7 @@ BallFilter::Fit BallFilter::Solve(const Segment& seg, const Vec6& nominal, uint6
         gp *= huber;
         AddTerm(tau, m, gp, h, g);
         const float b[2] = {r.bias_h, r.bias_v};
-        for (int j = 0; j < 2; ++j) {
+        for (int j = 0; last && j < 2; ++j) {
           const Eigen::Vector3f c = huber * b[j] * wjac[j];
           bias_g.col(2 * r.camera + j).head<3>() += c;
           bias_g.col(2 * r.camera + j).tail<3>() += tau * c;

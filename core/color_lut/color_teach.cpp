@@ -154,18 +154,16 @@ Status BallColorStats::Fit(const BallColorModel& start, BallColorModel& out) con
   const float half = 0.5f * (h_hi - h_lo) > 8.0f ? 0.5f * (h_hi - h_lo) : 8.0f;
   m.hue_min_deg = mid - half;
   m.hue_max_deg = mid + half;
-  const auto floor_of = [](const float* bins, float fallback) {
-    if (Total(bins, kChromaBins) < 50.0f) return fallback;
-    return Clamp(0.85f * Percentile(bins, kChromaBins, kChromaStep, 0.03f), 0.12f, 0.5f);
-  };
   // The chroma floors, like the luma floor, only ever go down from the start model's: taught
   // pixels are the ball's inside, and a far ball is all edge, mixed with what surrounds it (lob
   // 173: the omni ball 8 px across at 5.3 m, a tenth of its pixels below a taught floor of 0.40).
-  const float dark = floor_of(chroma_dark_, start.chroma_min);
-  m.chroma_min = dark < start.chroma_min ? dark : start.chroma_min;
-  const float bright_taught = floor_of(chroma_bright_, start.chroma_min_bright);
-  const float bright =
-      bright_taught < start.chroma_min_bright ? bright_taught : start.chroma_min_bright;
+  const auto floor_of = [](const float* bins, float start_floor) {
+    if (Total(bins, kChromaBins) < 50.0f) return start_floor;
+    const float f = Clamp(0.85f * Percentile(bins, kChromaBins, kChromaStep, 0.03f), 0.12f, 0.5f);
+    return f < start_floor ? f : start_floor;
+  };
+  m.chroma_min = floor_of(chroma_dark_, start.chroma_min);
+  const float bright = floor_of(chroma_bright_, start.chroma_min_bright);
   m.chroma_min_bright = bright < m.chroma_min ? bright : m.chroma_min;
   m.chroma_max =
       Clamp(1.3f * Percentile(chroma_all_, kChromaBins, kChromaStep, 0.995f), 1.0f, 4.0f);
