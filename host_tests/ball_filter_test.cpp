@@ -563,6 +563,45 @@ TEST(BallFilter, AnUnmodelledDecelerationIsInTheReportedSigma) {
   EXPECT_LT(err, 1.5f * sigma);
 }
 
+// The rays' noise is the rig's and the venue's, not a track's: measured from the residuals over
+// recent frames, it is what a new track's first frames report, where their own few residuals
+// say little. Rays at a quarter of their stated noise: the level comes down to about that; at
+// the stated noise it stays near the model's.
+TEST(BallFilter, TheRaysMeasuredNoiseCarriesOverToTheNextTrack) {
+  auto level_after = [](float noise_frac, BallFilter& f) {
+    Sim ball{Eigen::Vector3f(-1.5f, 3.f, kR), Eigen::Vector3f(1.f, 0.5f, 0.f)};
+    for (int k = 0; k < 90; ++k) {
+      f.Update(Observe(ball.p, FrameUs(k), kBoth, k, 1.f, 0.f, noise_frac));
+      ball.Step(1.f / 30.f);
+    }
+    return f.noise_level();
+  };
+  BallFilter quiet(Config()), stated(Config()), fresh(Config());
+  EXPECT_EQ(fresh.noise_level(), 1.f);
+  const float quiet_level = level_after(0.25f, quiet), stated_level = level_after(1.f, stated);
+  EXPECT_LT(quiet_level, 0.12f);
+  EXPECT_GT(stated_level, 0.35f);
+  EXPECT_GT(stated_level, 5.f * quiet_level);
+  // 2 s later another ball, 3 frames of it: the same rays, a smaller sigma where the rays have
+  // shown they are quiet; the estimate itself is the same.
+  const Eigen::Vector3f p(1.f, 2.5f, kR);
+  BallState s_quiet, s_fresh;
+  for (int k = 150; k < 153; ++k) {
+    const BallObservation o = Observe(p, FrameUs(k), kBoth, k, 1.f, 0.f, 0.25f);
+    quiet.Update(o);
+    fresh.Update(o);
+  }
+  quiet.FillState(FrameUs(152), 0, s_quiet);
+  fresh.FillState(FrameUs(152), 0, s_fresh);
+  ASSERT_TRUE(s_quiet.found && s_fresh.found);
+  EXPECT_NEAR((Pos(s_quiet) - Pos(s_fresh)).norm(), 0.f, 1e-5f);
+  EXPECT_LT(s_quiet.sigma_y_m, 0.7f * s_fresh.sigma_y_m);
+  EXPECT_LT(s_quiet.sigma_x_m, 0.7f * s_fresh.sigma_x_m);
+  // A reconfiguration is a new rig: back to the model's noise.
+  quiet.Configure(Config());
+  EXPECT_EQ(quiet.noise_level(), 1.f);
+}
+
 TEST(BallFilter, CoastingGrowsTheUncertaintyThenTheTrackIsLost) {
   Sim ball{Eigen::Vector3f(0.f, 3.f, kR), Eigen::Vector3f(1.f, 0.f, 0.f)};
   BallFilter f(Config());

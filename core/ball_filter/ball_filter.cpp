@@ -23,7 +23,7 @@ constexpr float kMaxUpwardDirZ = 0.7f;         // rays steeper than ~44 deg up c
 constexpr float kRestSpeedMps = 0.02f;         // slower: at rest (no rolling deceleration)
 constexpr float kHuberSigma = 3.f;             // residuals beyond this many sigmas count linearly
 constexpr float kStopCheckSpeedMps = 0.5f;  // a rolling fit this slow is checked for having stopped
-constexpr float kMinQuietScale = 0.0625f;   // white part: at least a quarter of the model's sigma
+constexpr float kMinQuietScale = 0.015625f;  // white part: at least an eighth of the model's sigma
 constexpr float kOffSigma = 3.f;  // a frame this far from the prediction may start a segment
 constexpr int kRestFrames = 4;    // frames that must agree with a ball at rest
 constexpr float kUnobservableGateRad = 0.15f;  // direction gate while the range is unknown
@@ -31,6 +31,9 @@ constexpr float kUnknownDepthM = 4.f;          // where a lone ray above the flo
 constexpr float kAmbiguousChi2 = 4.f;  // two flights this close in chi^2 but apart: ambiguous
 constexpr float kFloorChi2 = 9.f;      // the floor must not cost more than 3 sigma (1 dof: height)
 constexpr int kStereoFramesForOneStart = 3;  // a flight fit from the current state suffices
+// The rays' measured noise level: the rows of the last ~128 frames (4 s at 30 Hz), starting from
+// the model's as if 8 rows had agreed with it (forgotten like the rest).
+constexpr float kNoiseForget = 1.f - 1.f / 128.f, kNoisePriorRows = 8.f;
 
 float Seconds(uint64_t a_us, uint64_t b_us) {  // a - b in seconds, signed
   return a_us >= b_us ? static_cast<float>(a_us - b_us) * 1e-6f
@@ -46,13 +49,23 @@ bool Finite(const Eigen::Vector3f& v) {
   return std::isfinite(v.x()) && std::isfinite(v.y()) && std::isfinite(v.z());
 }
 
+// One ray's whitened rows: horizontal angle (e1), vertical angle (e2 = d x e1), range cue.
+struct RayRows {
+  Eigen::Vector3f jac[3];   // d row / d ball position, over the row's sigma
+  float res[3] = {};        // the row's residual over its sigma
+  float inv_sigma[2] = {};  // 1 / the angular rows' sigma
+  int n = 0;                // 2, or 3 with a range cue
+};
+
 // One ray's angular residuals (across the ray, horizontal e1 then e2 = d x e1) for the ball at x
 // relative to the ray origin, and the range cue's residual along it; accumulates J^T W J (m) and
 // J^T W r (g). Angular, not metric: a metric residual would let the fit shrink towards the camera
 // centre, where every ray of one camera meets. Returns chi^2.
 float RayTerms(const Eigen::Vector3f& x, const Eigen::Vector3f& d, float sigma_h, float sigma_v,
                float range, float range_sigma, Eigen::Matrix3f& m, Eigen::Vector3f& g, int& rows,
-               Eigen::Vector3f* wjac = nullptr) {
+               RayRows* out = nullptr) {
+  RayRows local;
+  RayRows& rr = out != nullptr ? *out : local;
   Eigen::Vector3f e1 = d.cross(Eigen::Vector3f::UnitZ());
   const float n1 = e1.norm();
   if (n1 < 1e-3f) {
@@ -64,9 +77,6 @@ float RayTerms(const Eigen::Vector3f& x, const Eigen::Vector3f& d, float sigma_h
   const Eigen::Vector3f e2 = d.cross(e1);
   const float along = d.dot(x);
   const float rho = std::max(along, kMinDepthM);
-  m.setZero();
-  g.setZero();
-  float chi2 = 0;
   const Eigen::Vector3f* es[2] = {&e1, &e2};
   const float sig[2] = {sigma_h + kSigmaFloorM / rho, sigma_v + kSigmaFloorM / rho};
   for (int j = 0; j < 2; ++j) {
@@ -78,22 +88,25 @@ float RayTerms(const Eigen::Vector3f& x, const Eigen::Vector3f& d, float sigma_h
     const float res = small ? across / along : std::atan2(across, along);
     const float n2 =
         small ? along * along : std::max(across * across + along * along, kMinDepthM * kMinDepthM);
-    const Eigen::Vector3f jac = (along * *es[j] - across * d) / n2;
-    const float w = 1.f / (sig[j] * sig[j]);
-    m += w * jac * jac.transpose();
-    g += w * res * jac;
-    chi2 += w * res * res;
-    if (wjac != nullptr) wjac[j] = w * jac;
+    rr.inv_sigma[j] = 1.f / sig[j];
+    rr.jac[j] = (along * *es[j] - across * d) / (n2 * sig[j]);
+    rr.res[j] = res / sig[j];
   }
-  rows = 2;
+  rr.n = 2;
   if (range > 0.f && range_sigma > 0.f) {
-    const float res = (d.dot(x) - range) / range_sigma;
-    const Eigen::Vector3f jac = d / range_sigma;
-    m += jac * jac.transpose();
-    g += res * jac;
-    chi2 += res * res;
-    ++rows;
+    rr.jac[2] = d / range_sigma;
+    rr.res[2] = (d.dot(x) - range) / range_sigma;
+    rr.n = 3;
   }
+  m.setZero();
+  g.setZero();
+  float chi2 = 0;
+  for (int k = 0; k < rr.n; ++k) {
+    m += rr.jac[k] * rr.jac[k].transpose();
+    g += rr.res[k] * rr.jac[k];
+    chi2 += rr.res[k] * rr.res[k];
+  }
+  rows = rr.n;
   return chi2;
 }
 
@@ -142,6 +155,7 @@ Mat6 CholeskyInverse(const Mat6& l) {
 void BallFilter::Configure(const BallFilterConfig& config) {
   cfg_ = config;
   cfg_.max_window = std::clamp(cfg_.max_window, 4, kMaxWindow);
+  noise_chi2_ = noise_dof_ = kNoisePriorRows;
   Reset();
 }
 
@@ -292,9 +306,9 @@ BallFilter::Fit BallFilter::Solve(const Segment& seg, const Vec6& nominal, uint6
         Eigen::Matrix3f m;
         Eigen::Vector3f gp;
         int nr = 0;
-        Eigen::Vector3f wjac[2];
+        RayRows rr;
         const float chi = RayTerms(p - origin_[r.camera], r.dir, r.sigma_h, r.sigma_v, r.range,
-                                   r.range_sigma, m, gp, nr, last ? wjac : nullptr);
+                                   r.range_sigma, m, gp, nr, &rr);
         // Huber: one wrong ray bends the fit only linearly.
         const float z = std::sqrt(chi / static_cast<float>(nr));
         const float huber = z > kHuberSigma ? kHuberSigma / z : 1.f;
@@ -303,7 +317,7 @@ BallFilter::Fit BallFilter::Solve(const Segment& seg, const Vec6& nominal, uint6
         AddTerm(tau, m, gp, h, g);
         const float b[2] = {r.bias_h, r.bias_v};
         for (int j = 0; last && j < 2; ++j) {
-          const Eigen::Vector3f c = huber * b[j] * wjac[j];
+          const Eigen::Vector3f c = huber * b[j] * rr.inv_sigma[j] * rr.jac[j];
           bias_g.col(2 * r.camera + j).head<3>() += c;
           bias_g.col(2 * r.camera + j).tail<3>() += tau * c;
         }
@@ -331,14 +345,16 @@ BallFilter::Fit BallFilter::Solve(const Segment& seg, const Vec6& nominal, uint6
     f.chi2 += ObsChi2(Newest(i), seg, f.x, t_ref_us_);
   }
   const int dof = rows - (seg.motion == Motion::kAir ? 6 : seg.at_rest ? 2 : 4);
-  if (dof > 0 && f.chi2 > static_cast<float>(dof)) f.cov *= f.chi2 / static_cast<float>(dof);
-  // Quieter residuals than the model: a variance factor, pulled towards 1 by kPriorDof rows at
-  // the model's noise so a few lucky frames do not claim precision.
-  constexpr float kPriorDof = 8.f;
-  if (dof > 0) {
-    f.quiet_scale = std::clamp((f.chi2 + kPriorDof) / (static_cast<float>(dof) + kPriorDof),
-                               kMinQuietScale, 1.f);
+  if (dof > 0 && f.chi2 > static_cast<float>(dof)) {
+    f.inflation = f.chi2 / static_cast<float>(dof);
+    f.cov *= f.inflation;
   }
+  // Quieter residuals than the model: a variance factor, pulled by kNoisePriorRows rows towards
+  // the level the rays have shown over recent frames, so a few lucky frames (a segment's first)
+  // do not claim precision the cameras have not shown, nor lose what they have.
+  f.quiet_scale = std::clamp((f.chi2 + kNoisePriorRows * noise_level()) /
+                                 (static_cast<float>(std::max(dof, 0)) + kNoisePriorRows),
+                             kMinQuietScale, 1.f);
   f.ok = true;
   return f;
 }
@@ -740,6 +756,7 @@ uint16_t BallFilter::Update(const BallObservation& in) {
   t_ref_us_ = obs.t_us;
   Refit();
   CheckModel(off);
+  LearnRayNoise();
   if (!fit_.x.allFinite() || !fit_.cov.allFinite()) {
     Reset();
     return kFlagOutlierRejected;
@@ -1022,6 +1039,38 @@ bool BallFilter::StateAt(uint64_t t_us, Eigen::Vector3f& p_m, Eigen::Vector3f& v
   float x, y;
   Evolve(dt, p_m, v_mps, mode, &tc, &x, &y, 0, n);
   return true;
+}
+
+// The newest frame's whitened residuals against the fit that includes it: each row's expected
+// square is the rays' variance factor times (1 - its leverage), so their sums estimate how noisy
+// the rays really are against the model. The rig's and the venue's, not a track's: kept across
+// tracks and segments (Configure clears them).
+void BallFilter::LearnRayNoise() {
+  if (!tracking_ || !fit_.ok || count_ == 0 || Newest(0).t_us != t_ref_us_) return;
+  const Stored& s = Newest(0);
+  const Eigen::Matrix3f c = fit_.cov.topLeftCorner<3, 3>() / fit_.inflation;
+  noise_chi2_ *= kNoiseForget;
+  noise_dof_ *= kNoiseForget;
+  for (int k = 0; k < s.n; ++k) {
+    const StoredRay& r = s.rays[k];
+    Eigen::Matrix3f m;
+    Eigen::Vector3f g;
+    int nr = 0;
+    RayRows rr;
+    RayTerms(fit_.x.head<3>() - origin_[r.camera], r.dir, r.sigma_h, r.sigma_v, r.range,
+             r.range_sigma, m, g, nr, &rr);
+    for (int j = 0; j < rr.n; ++j) {
+      const float free = 1.f - rr.jac[j].dot(c * rr.jac[j]);
+      const float z2 = rr.res[j] * rr.res[j];
+      if (!std::isfinite(free) || !std::isfinite(z2)) continue;
+      noise_chi2_ += std::min(z2, kHuberSigma * kHuberSigma);
+      noise_dof_ += std::clamp(free, 0.f, 1.f);
+    }
+  }
+}
+
+float BallFilter::noise_level() const {
+  return noise_dof_ > 0.f ? std::clamp(noise_chi2_ / noise_dof_, kMinQuietScale, 1.f) : 1.f;
 }
 
 bool BallFilter::SigmaAt(uint64_t t_us, Eigen::Vector3f& sigma_m, bool reported) const {

@@ -105,6 +105,9 @@ class BallFilter {
   uint64_t last_measurement_us() const { return t_ref_us_; }
   /// The position along the rays is determined (false: e.g. one camera, no motion yet).
   bool observable() const { return observable_; }
+  /// How noisy the rays have measured against their noise model over recent frames, as a
+  /// variance factor in [1/64, 1] (1 until rays have been seen).
+  float noise_level() const;
 
  private:
   struct StoredRay {
@@ -145,9 +148,11 @@ class BallFilter {
     Eigen::Matrix<float, 6, 6> cov = Eigen::Matrix<float, 6, 6>::Zero();
     float chi2 = 0;
     int rows = 0;
-    // (chi2 + 8) / (dof + 8), at most 1: the residuals' own variance factor where
-    // they are quieter than the (deliberately wide) ray noise model; the state reports it.
+    // (chi2 + 8 level) / (dof + 8), at most 1: the residuals' own variance factor where they
+    // are quieter than the (deliberately wide) ray noise model, pulled towards the level the
+    // rays have measured over recent frames (noise_level()); the state reports it.
     float quiet_scale = 1;
+    float inflation = 1;  // chi2 / dof where the residuals exceed the model: cov includes it
     // The state's response (p, v at t_ref) to each camera's shared angular error, 1-sigma
     // (columns: omni h, omni v, persp h, persp v): the reported covariance adds bias bias^T.
     Eigen::Matrix<float, 6, 4> bias = Eigen::Matrix<float, 6, 4>::Zero();
@@ -189,6 +194,7 @@ class BallFilter {
   bool Rebound(const Eigen::Vector3f& v_in, const Eigen::Vector2f& spin_in, Eigen::Vector3f& v_out,
                Eigen::Vector2f& spin_out) const;
   uint16_t UpdateObservable();  // sets observable_; returns kFlagUnobservable or 0
+  void LearnRayNoise();
   void Evolve(float dt_s, Eigen::Vector3f& p, Eigen::Vector3f& v, BallMode& mode,
               uint64_t* contacts, float* cx, float* cy, int max_contacts, int& n_contacts) const;
 
@@ -209,6 +215,9 @@ class BallFilter {
   int off_count_ = 0;  // consecutive observations far from the model (segment restart)
   bool cand_valid_ = false;
   BallObservation cand_;  // a rejected jump, kept to see whether the next frame confirms it
+  // The newest frames' whitened squared residuals and their expected share (1 - leverage), with
+  // forgetting: noise_level().
+  float noise_chi2_ = 0, noise_dof_ = 0;  // Configure() starts both at kNoisePriorRows
 };
 
 }  // namespace bv

@@ -611,7 +611,7 @@ void PrintOverall(const std::string& seq, const std::vector<FrameRecord>& recs,
   // often the true error per axis lies within the state's 1-sigma (68 % when calibrated).
   const char* kPhase[4] = {"seen by both", "omni only", "persp only", "coasting"};
   std::vector<double> by_phase[4];
-  int inside = 0, axes = 0, unobservable = 0;
+  int inside = 0, inside2 = 0, inside3 = 0, axes = 0, unobservable = 0;
   for (const auto& r : recs) {
     const Truth* t = TruthAt(truth, r.state.t_us);
     if (!t || !r.state.found) continue;
@@ -631,6 +631,8 @@ void PrintOverall(const std::string& seq, const std::vector<FrameRecord>& recs,
     for (int j = 0; j < 3; ++j) {
       if (j == 2 && r.state.mode == BallMode::kRolling) continue;  // z is the floor constraint
       inside += std::fabs(err[j]) <= sig[j];
+      inside2 += std::fabs(err[j]) <= 2 * sig[j];
+      inside3 += std::fabs(err[j]) <= 3 * sig[j];
       ++axes;
     }
   }
@@ -644,8 +646,9 @@ void PrintOverall(const std::string& seq, const std::vector<FrameRecord>& recs,
   if (axes > 0) {
     std::printf(
         "uncertainty: true error within the state's 1-sigma on %.1f %% of axes (68 %% when "
-        "calibrated, n=%d); flagged unobservable in %d frames\n",
-        100.0 * inside / axes, axes, unobservable);
+        "calibrated, n=%d), within 2 sigma on %.1f %% (95 %%), within 3 sigma on %.1f %% (99.7 "
+        "%%); flagged unobservable in %d frames\n",
+        100.0 * inside / axes, axes, 100.0 * inside2 / axes, 100.0 * inside3 / axes, unobservable);
   }
   std::vector<double> e;
   double sx = 0, sy = 0, sz = 0;
