@@ -44,7 +44,8 @@ float AngleBetween(const Eigen::Vector3f& a, const Eigen::Vector3f& b) {
 // mirror's local scale, radially (elevation, from the neighbouring pixel's ray) and tangentially
 // (azimuth: one pixel is 1/rho of a turn, scaled by the ray's horizontal extent).
 void OmniRaySigma(const OmniCalibration& cal, const BallDetection& det, const Ray& ray,
-                  float extra_px, const PipelineConfig& config, BallRay& out) {
+                  float extra_px, float shared_extra_px, const PipelineConfig& config,
+                  BallRay& out) {
   const float du = det.u_px - cal.center_u, dv = det.v_px - cal.center_v;
   const float rho = std::max(std::hypot(du, dv), 1.0f);
   const float s_px = config.omni_sigma_px + config.omni_sigma_per_radius * det.radius_px + extra_px;
@@ -61,7 +62,7 @@ void OmniRaySigma(const OmniCalibration& cal, const BallDetection& det, const Ra
   const float el_per_px = std::clamp(per_px, 1e-4f, 0.05f);
   out.sigma_h_rad = std::hypot(s_px * az_per_px, config.omni_azimuth_sigma_rad * horiz);
   out.sigma_v_rad = s_px * el_per_px;
-  const float b_px = config.omni_bias_px + extra_px;
+  const float b_px = config.omni_bias_px + shared_extra_px;
   out.bias_h_rad = std::hypot(b_px * az_per_px, config.omni_azimuth_bias_rad * horiz);
   out.bias_v_rad = b_px * el_per_px;
 }
@@ -188,8 +189,13 @@ void OmniSphereCentre(const OmniCalibration& cal, float radius_px, float& u, flo
   v -= shift * ey;
 }
 
+// A disc cut by a straight edge: its visible part's centroid is off the centre by 1.2-1.75 times
+// the radius its area lacks (1.45 at half visible, 1.75 with a tenth hidden). The fit's weights
+// take the missing radius; the shared error, the frames' common offset, the geometry's.
+constexpr float kHiddenCentroidPerMissingRadius = 1.5f;
+
 // How far a region's centroid may be off when its size disagrees with the predicted silhouette.
-// Smaller: the visible part of a partly hidden ball, off by up to the missing radius. Larger (past
+// Smaller: the visible part of a partly hidden ball, off by about the missing radius. Larger (past
 // the ~10 % that blur and a prediction's range error give): the ball merged with something
 // ball-coloured beside it (a spare ball, a cone behind it), whose area pulls the centroid by about
 // twice the radius it adds (areas r_b^2 and r_t^2 - r_b^2, centres ~r_b + r_o apart).
@@ -711,7 +717,8 @@ void Pipeline::PerspRayNoiseAndRange(const BallDetection& det, const Ray& ray, b
       (config_.persp_sigma_px + config_.persp_sigma_per_radius * det.radius_px +
        (circle ? 0.5f : 0.f) + shape_px) /
       fx;
-  out.bias_h_rad = out.bias_v_rad = (config_.persp_bias_px + shape_px) / fx;
+  out.bias_h_rad = out.bias_v_rad =
+      (config_.persp_bias_px + shape_px + (kHiddenCentroidPerMissingRadius - 1.f) * hidden_px) / fx;
   if (det.radius_px > 0.5f && !cut_centroid) {
     auto rim = PerspPixelToRay(cal.persp, det.u_px + det.radius_px, det.v_px);
     if (rim.ok()) {
@@ -785,8 +792,9 @@ void Pipeline::BuildObservation(const CameraRays& rays, BallState& out, BallObse
     omni_ray.dir = rays.omni.dir;
     omni_ray.camera = 0;
     const float hidden_px = SizeMisfitPx(pred_omni_, out.omni.radius_px);
-    OmniRaySigma(cal.omni, out.omni, rays.omni,
-                 (rays.omni_cut ? 0.5f * out.omni.radius_px : 0.f) + hidden_px, config_, omni_ray);
+    const float cut_px = rays.omni_cut ? 0.5f * out.omni.radius_px : 0.f;
+    OmniRaySigma(cal.omni, out.omni, rays.omni, cut_px + hidden_px,
+                 cut_px + kHiddenCentroidPerMissingRadius * hidden_px, config_, omni_ray);
   }
   if (have_p) {
     persp_ray.origin = rays.persp.origin;
