@@ -57,15 +57,12 @@ struct RayRows {
   int n = 0;                // 2, or 3 with a range cue
 };
 
-// One ray's angular residuals (across the ray, horizontal e1 then e2 = d x e1) for the ball at x
-// relative to the ray origin, and the range cue's residual along it; accumulates J^T W J (m) and
-// J^T W r (g). Angular, not metric: a metric residual would let the fit shrink towards the camera
-// centre, where every ray of one camera meets. Returns chi^2.
-float RayTerms(const Eigen::Vector3f& x, const Eigen::Vector3f& d, float sigma_h, float sigma_v,
-               float range, float range_sigma, Eigen::Matrix3f& m, Eigen::Vector3f& g, int& rows,
-               RayRows* out = nullptr) {
-  RayRows local;
-  RayRows& rr = out != nullptr ? *out : local;
+// One ray's whitened rows for the ball at x relative to the ray origin: its angles across the ray
+// (horizontal e1 then e2 = d x e1) and the range cue's residual along it. Angular, not metric: a
+// metric residual would let the fit shrink towards the camera centre, where every ray of one
+// camera meets. Returns chi^2.
+float RayRowsAt(const Eigen::Vector3f& x, const Eigen::Vector3f& d, float sigma_h, float sigma_v,
+                float range, float range_sigma, RayRows& rr) {
   Eigen::Vector3f e1 = d.cross(Eigen::Vector3f::UnitZ());
   const float n1 = e1.norm();
   if (n1 < 1e-3f) {
@@ -98,16 +95,19 @@ float RayTerms(const Eigen::Vector3f& x, const Eigen::Vector3f& d, float sigma_h
     rr.res[2] = (d.dot(x) - range) / range_sigma;
     rr.n = 3;
   }
+  float chi2 = 0;
+  for (int k = 0; k < rr.n; ++k) chi2 += rr.res[k] * rr.res[k];
+  return chi2;
+}
+
+// The rows' J^T W J (m) and J^T W r (g).
+void RayNormal(const RayRows& rr, Eigen::Matrix3f& m, Eigen::Vector3f& g) {
   m.setZero();
   g.setZero();
-  float chi2 = 0;
   for (int k = 0; k < rr.n; ++k) {
     m += rr.jac[k] * rr.jac[k].transpose();
     g += rr.res[k] * rr.jac[k];
-    chi2 += rr.res[k] * rr.res[k];
   }
-  rows = rr.n;
-  return chi2;
 }
 
 // Cholesky of the 6x6 normal matrix, written out: Eigen's matrix-right-hand-side solves go
@@ -303,12 +303,13 @@ BallFilter::Fit BallFilter::Solve(const Segment& seg, const Vec6& nominal, uint6
       const Eigen::Vector3f p = p0 + v0 * tau + a;
       for (int k = 0; k < s.n; ++k) {
         const StoredRay& r = s.rays[k];
+        RayRows rr;
+        const float chi = RayRowsAt(p - origin_[r.camera], r.dir, r.sigma_h, r.sigma_v, r.range,
+                                    r.range_sigma, rr);
+        const int nr = rr.n;
         Eigen::Matrix3f m;
         Eigen::Vector3f gp;
-        int nr = 0;
-        RayRows rr;
-        const float chi = RayTerms(p - origin_[r.camera], r.dir, r.sigma_h, r.sigma_v, r.range,
-                                   r.range_sigma, m, gp, nr, &rr);
+        RayNormal(rr, m, gp);
         // Huber: one wrong ray bends the fit only linearly.
         const float z = std::sqrt(chi / static_cast<float>(nr));
         const float huber = z > kHuberSigma ? kHuberSigma / z : 1.f;
@@ -368,11 +369,9 @@ float BallFilter::ObsChi2(const Stored& s, const Segment& seg, const Vec6& x,
   float chi2 = 0;
   for (int k = 0; k < s.n; ++k) {
     const StoredRay& r = s.rays[k];
-    Eigen::Matrix3f m;
-    Eigen::Vector3f g;
-    int nr = 0;
-    chi2 += RayTerms(p - origin_[r.camera], r.dir, r.sigma_h, r.sigma_v, r.range, r.range_sigma, m,
-                     g, nr);
+    RayRows rr;
+    chi2 +=
+        RayRowsAt(p - origin_[r.camera], r.dir, r.sigma_h, r.sigma_v, r.range, r.range_sigma, rr);
   }
   return chi2;
 }
@@ -1053,12 +1052,9 @@ void BallFilter::LearnRayNoise() {
   noise_dof_ *= kNoiseForget;
   for (int k = 0; k < s.n; ++k) {
     const StoredRay& r = s.rays[k];
-    Eigen::Matrix3f m;
-    Eigen::Vector3f g;
-    int nr = 0;
     RayRows rr;
-    RayTerms(fit_.x.head<3>() - origin_[r.camera], r.dir, r.sigma_h, r.sigma_v, r.range,
-             r.range_sigma, m, g, nr, &rr);
+    RayRowsAt(fit_.x.head<3>() - origin_[r.camera], r.dir, r.sigma_h, r.sigma_v, r.range,
+              r.range_sigma, rr);
     for (int j = 0; j < rr.n; ++j) {
       const float free = 1.f - rr.jac[j].dot(c * rr.jac[j]);
       const float z2 = rr.res[j] * rr.res[j];
