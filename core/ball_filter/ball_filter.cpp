@@ -1114,8 +1114,9 @@ int BallFilter::ContactsAfter(uint64_t t_us, uint64_t* t_out, float* x_out, floa
 void BallFilter::FillState(uint64_t t_us, uint32_t ahead_us, BallState& out) const {
   out.found = false;
   out.mode = BallMode::kNone;
-  out.flags &= static_cast<uint16_t>(
-      ~(kFlagCoasting | kFlagLost | kFlagHasBounce | kFlagHasPrediction | kFlagUnobservable));
+  out.flags &=
+      static_cast<uint16_t>(~(kFlagCoasting | kFlagLost | kFlagHasBounce | kFlagHasPrediction |
+                              kFlagUnobservable | kFlagPredictionUncertain));
   if (!tracking_ || !fit_.ok) return;
   if (t_us > t_ref_us_ + cfg_.coast_us) {
     out.flags |= kFlagLost;
@@ -1152,6 +1153,9 @@ void BallFilter::FillState(uint64_t t_us, uint32_t ahead_us, BallState& out) con
   out.py_m = p.y();
   out.pz_m = p.z();
   out.flags |= kFlagHasPrediction;
+  if (SigmaAt(t_us + ahead_us, s) && !(s.norm() <= cfg_.unobservable_sigma_m)) {
+    out.flags |= kFlagPredictionUncertain;
+  }
 }
 
 }  // namespace bv

@@ -41,6 +41,9 @@ enum BallFlags : uint16_t {
   kFlagHasBounce = 1u << 11,          // t_bounce_us / bounce_x_m / bounce_y_m valid
   kFlagHasPrediction = 1u << 12,      // px/py/pz valid
   kFlagUnobservable = 1u << 13,  // one camera and too little motion: range along the ray unknown
+  // px/py/pz's own 1-sigma exceeds BallFilterConfig::unobservable_sigma_m (a kick's first frames:
+  // the speed along the rays not yet determined); still the best estimate.
+  kFlagPredictionUncertain = 1u << 14,
 };
 
 struct BallState {

@@ -718,7 +718,7 @@ void PrintPredictionErrors(int predict_ms, const std::vector<FrameRecord>& recs,
                            const std::map<uint64_t, Truth>& truth,
                            const std::vector<double>& bounces) {
   const uint64_t ahead_us = static_cast<uint64_t>(predict_ms) * 1000u;
-  std::vector<double> e_all, e_nobounce;
+  std::vector<double> e_all, e_nobounce, e_uncertain;
   std::printf("\nPosition predicted %d ms ahead vs truth (frames with the ball in flight)\n",
               predict_ms);
   std::printf("%8s %-9s %-5s | %8s %8s %8s | %8s\n", "t_s", "mode", "kind", "pred_x", "pred_y",
@@ -736,9 +736,11 @@ void PrintPredictionErrors(int predict_ms, const std::vector<FrameRecord>& recs,
       crosses |= b > r.state.t_us * 1e-6 && b <= (r.state.t_us + ahead_us) * 1e-6;
     }
     if (!crosses) e_nobounce.push_back(e);
-    std::printf("%8.3f %-9s %-5s | %8.3f %8.3f %8.3f | %8.2f%s\n", r.state.t_us * 1e-6,
+    const bool uncertain = (r.state.flags & kFlagPredictionUncertain) != 0;
+    if (uncertain) e_uncertain.push_back(e);
+    std::printf("%8.3f %-9s %-5s | %8.3f %8.3f %8.3f | %8.2f%s%s\n", r.state.t_us * 1e-6,
                 BallModeName(r.state.mode), MeasKind(r.state), p.x(), p.y(), p.z(), e * 100,
-                crosses ? "  (bounce in between)" : "");
+                crosses ? "  (bounce in between)" : "", uncertain ? "  (flagged uncertain)" : "");
   }
   if (!e_all.empty()) {
     std::printf("prediction error %d ms ahead: median %.2f cm, p90 %.2f cm, max %.2f cm (n=%zu)\n",
@@ -750,6 +752,11 @@ void PrintPredictionErrors(int predict_ms, const std::vector<FrameRecord>& recs,
         "  without a bounce in the horizon: median %.2f cm, p90 %.2f cm, max %.2f cm (n=%zu)\n",
         Median(e_nobounce) * 100, Percentile(e_nobounce, 0.9) * 100,
         Percentile(e_nobounce, 1.0) * 100, e_nobounce.size());
+  }
+  // Counted above too: the flag tells the robot, it does not hide the frame here.
+  if (!e_uncertain.empty()) {
+    std::printf("  flagged uncertain (the prediction's sigma > 0.5 m): %zu frames, max %.2f cm\n",
+                e_uncertain.size(), Percentile(e_uncertain, 1.0) * 100);
   }
 }
 

@@ -53,6 +53,7 @@ SCHEMA_HASH = zlib.crc32(_SCHEMA.encode()) & 0xFFFF
 
 MODES = ("none", "rolling", "flying", "bouncing")
 FLAG_SEEN_OMNI, FLAG_SEEN_PERSP, FLAG_HAS_BOUNCE, FLAG_HAS_PREDICTION = 1, 2, 1 << 11, 1 << 12
+FLAG_UNOBSERVABLE, FLAG_PREDICTION_UNCERTAIN = 1 << 13, 1 << 14
 
 _BALL = struct.Struct("<QHBB3f3ff2f2fQ2fI3fI3H")
 _STATUS = struct.Struct("<Q12IBBH11I")
