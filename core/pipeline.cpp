@@ -191,7 +191,9 @@ void OmniSphereCentre(const OmniCalibration& cal, float radius_px, float& u, flo
 
 // A disc cut by a straight edge: its visible part's centroid is off the centre by 1.2-1.75 times
 // the radius its area lacks (1.45 at half visible, 1.75 with a tenth hidden). The fit's weights
-// take the missing radius; the shared error, the frames' common offset, the geometry's.
+// take the missing radius; the shared error, the frames' common offset, the geometry's, up to the
+// ray's whole sigma (the filter's cap): it binds where the hidden part is most of that sigma, as
+// in the omni elevation, which has no calibration term beside it.
 constexpr float kHiddenCentroidPerMissingRadius = 1.5f;
 
 // How far a region's centroid may be off when its size disagrees with the predicted silhouette.

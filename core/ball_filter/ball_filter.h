@@ -47,8 +47,10 @@ struct BallFilterConfig {
   uint32_t coast_us = 500000;  // prediction only, then lost
   float max_range_m = 25.f;    // beyond: far outside any field
   float max_height_m = 6.f;
-  float unobservable_sigma_m = 0.5f;  // position sigma above this is flagged kFlagUnobservable
-  float robot_radius_m = 0.25f;       // a ray meeting the floor inside this radius sees the robot
+  // A position sigma above this is flagged kFlagUnobservable; a look-ahead's,
+  // kFlagPredictionUncertain.
+  float unobservable_sigma_m = 0.5f;
+  float robot_radius_m = 0.25f;  // a ray meeting the floor inside this radius sees the robot
 };
 
 /// One camera's viewing ray through the ball centre, with its angular uncertainty.

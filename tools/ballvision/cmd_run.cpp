@@ -755,8 +755,9 @@ void PrintPredictionErrors(int predict_ms, const std::vector<FrameRecord>& recs,
   }
   // Counted above too: the flag tells the robot, it does not hide the frame here.
   if (!e_uncertain.empty()) {
-    std::printf("  flagged uncertain (the prediction's sigma > 0.5 m): %zu frames, max %.2f cm\n",
-                e_uncertain.size(), Percentile(e_uncertain, 1.0) * 100);
+    std::printf("  flagged uncertain (the prediction's sigma > %.1f m): %zu frames, max %.2f cm\n",
+                PipelineConfig{}.filter.unobservable_sigma_m, e_uncertain.size(),
+                Percentile(e_uncertain, 1.0) * 100);
   }
 }
 
