@@ -32,8 +32,12 @@ constexpr float kAmbiguousChi2 = 4.f;  // two flights this close in chi^2 but ap
 constexpr float kFloorChi2 = 9.f;      // the floor must not cost more than 3 sigma (1 dof: height)
 constexpr int kStereoFramesForOneStart = 3;  // a flight fit from the current state suffices
 // The rays' measured noise level: the rows of the last ~128 frames (4 s at 30 Hz), starting from
-// the model's as if 8 rows had agreed with it (forgotten like the rest).
-constexpr float kNoiseForget = 1.f - 1.f / 128.f, kNoisePriorRows = 8.f;
+// the model's as if 2 rows had agreed with it (forgotten like the rest; 8 held the level near
+// the model's for 2-3 s). A fit's variance factor is pulled towards it by 8 rows.
+constexpr float kNoiseForget = 1.f - 1.f / 128.f, kNoiseStartRows = 2.f, kNoisePriorRows = 8.f;
+// A segment's first frames do not measure the noise: their fit leans on the prior and the model
+// change, and at 20 % of the stated noise they put the level 2x high for seconds after each bounce.
+constexpr int kNoiseSegmentFrames = 6;
 
 float Seconds(uint64_t a_us, uint64_t b_us) {  // a - b in seconds, signed
   return a_us >= b_us ? static_cast<float>(a_us - b_us) * 1e-6f
@@ -155,7 +159,7 @@ Mat6 CholeskyInverse(const Mat6& l) {
 void BallFilter::Configure(const BallFilterConfig& config) {
   cfg_ = config;
   cfg_.max_window = std::clamp(cfg_.max_window, 4, kMaxWindow);
-  noise_chi2_ = noise_dof_ = kNoisePriorRows;
+  noise_chi2_ = noise_dof_ = kNoiseStartRows;
   Reset();
 }
 
@@ -1043,11 +1047,16 @@ bool BallFilter::StateAt(uint64_t t_us, Eigen::Vector3f& p_m, Eigen::Vector3f& v
 // The newest frame's whitened residuals against the fit that includes it: each row's expected
 // square is the rays' variance factor times (1 - its leverage), so their sums estimate how noisy
 // the rays really are against the model. The rig's and the venue's, not a track's: kept across
-// tracks and segments (Configure clears them).
+// tracks and segments (Configure clears them). A row counts at most 3 sigmas of the level so far:
+// a model change's misfit within the model's wide noise is not the rays' noise.
 void BallFilter::LearnRayNoise() {
   if (!tracking_ || !fit_.ok || count_ == 0 || Newest(0).t_us != t_ref_us_) return;
+  int seg_frames = 0;
+  while (seg_frames < count_ && Newest(seg_frames).t_us >= seg_.start_us) ++seg_frames;
+  if (seg_frames < kNoiseSegmentFrames) return;
   const Stored& s = Newest(0);
   const Eigen::Matrix3f c = fit_.cov.topLeftCorner<3, 3>() / fit_.inflation;
+  const float cap = kHuberSigma * kHuberSigma * noise_level();
   noise_chi2_ *= kNoiseForget;
   noise_dof_ *= kNoiseForget;
   for (int k = 0; k < s.n; ++k) {
@@ -1059,7 +1068,7 @@ void BallFilter::LearnRayNoise() {
       const float free = 1.f - rr.jac[j].dot(c * rr.jac[j]);
       const float z2 = rr.res[j] * rr.res[j];
       if (!std::isfinite(free) || !std::isfinite(z2)) continue;
-      noise_chi2_ += std::min(z2, kHuberSigma * kHuberSigma);
+      noise_chi2_ += std::min(z2, cap);
       noise_dof_ += std::clamp(free, 0.f, 1.f);
     }
   }

@@ -219,7 +219,7 @@ class BallFilter {
   BallObservation cand_;  // a rejected jump, kept to see whether the next frame confirms it
   // The newest frames' whitened squared residuals and their expected share (1 - leverage), with
   // forgetting: noise_level().
-  float noise_chi2_ = 0, noise_dof_ = 0;  // Configure() starts both at kNoisePriorRows
+  float noise_chi2_ = 0, noise_dof_ = 0;  // Configure() starts both at kNoiseStartRows
 };
 
 }  // namespace bv
