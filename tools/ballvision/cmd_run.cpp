@@ -612,6 +612,7 @@ void PrintOverall(const std::string& seq, const std::vector<FrameRecord>& recs,
   const char* kPhase[4] = {"seen by both", "omni only", "persp only", "coasting"};
   std::vector<double> by_phase[4];
   int inside = 0, inside2 = 0, inside3 = 0, axes = 0, unobservable = 0;
+  int phase_inside[4][3] = {}, phase_axes[4] = {};  // within 1, 2, 3 sigma, by phase
   for (const auto& r : recs) {
     const Truth* t = TruthAt(truth, r.state.t_us);
     if (!t || !r.state.found) continue;
@@ -634,6 +635,8 @@ void PrintOverall(const std::string& seq, const std::vector<FrameRecord>& recs,
       inside2 += std::fabs(err[j]) <= 2 * sig[j];
       inside3 += std::fabs(err[j]) <= 3 * sig[j];
       ++axes;
+      for (int m = 0; m < 3; ++m) phase_inside[phase][m] += std::fabs(err[j]) <= (m + 1) * sig[j];
+      ++phase_axes[phase];
     }
   }
   std::printf("state 3D error by phase:");
@@ -649,6 +652,14 @@ void PrintOverall(const std::string& seq, const std::vector<FrameRecord>& recs,
         "calibrated, n=%d), within 2 sigma on %.1f %% (95 %%), within 3 sigma on %.1f %% (99.7 "
         "%%); flagged unobservable in %d frames\n",
         100.0 * inside / axes, axes, 100.0 * inside2 / axes, 100.0 * inside3 / axes, unobservable);
+    std::printf("uncertainty by phase, within 1 / 2 / 3 sigma:");
+    for (int k = 0; k < 4; ++k) {
+      if (phase_axes[k] == 0) continue;
+      const double n = phase_axes[k];
+      std::printf(" %s %.1f / %.1f / %.1f %% (n=%d);", kPhase[k], 100.0 * phase_inside[k][0] / n,
+                  100.0 * phase_inside[k][1] / n, 100.0 * phase_inside[k][2] / n, phase_axes[k]);
+    }
+    std::printf("\n");
   }
   std::vector<double> e;
   double sx = 0, sy = 0, sz = 0;
