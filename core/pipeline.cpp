@@ -62,9 +62,9 @@ void OmniRaySigma(const OmniCalibration& cal, const BallDetection& det, const Ra
   const float el_per_px = std::clamp(per_px, 1e-4f, 0.05f);
   out.sigma_h_rad = std::hypot(s_px * az_per_px, config.omni_azimuth_sigma_rad * horiz);
   out.sigma_v_rad = s_px * el_per_px;
-  const float b_px = config.omni_bias_px + shared_extra_px;
-  out.bias_h_rad = std::hypot(b_px * az_per_px, config.omni_azimuth_bias_rad * horiz);
-  out.bias_v_rad = b_px * el_per_px;
+  out.bias_h_rad = std::hypot((config.omni_tangential_bias_px + shared_extra_px) * az_per_px,
+                              config.omni_azimuth_bias_rad * horiz);
+  out.bias_v_rad = (config.omni_radial_bias_px + shared_extra_px) * el_per_px;
 }
 
 // A sphere's outline is the cone of rays tangent to it, about the direction to its centre. Near
