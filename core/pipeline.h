@@ -50,15 +50,16 @@ struct PipelineConfig {
   float persp_sigma_px = 0.3f, persp_sigma_per_radius = 0.01f;
   // The part of a ray's error that neighbouring frames share, which the filter's window cannot
   // average away (reported sigma only): a base centroid bias (shading, the soft centroid's
-  // unmixing), the occlusion, cut and misfit terms above in full, and the omni azimuth's
-  // calibration error (1-2 mrad, fixed per direction). The base is the one part nothing measures;
-  // set on renders (lob 251, bounce 257, clutter 253, the shared bounce and clutter; lob 263 for
-  // the far range): radially in the omni image (range) 0.15 px, where the renders' 12-frame mean
-  // centroid errors are largest (0.08-0.4 px) and a far ball's range error needs it within 3 sigma;
-  // across (azimuth) and in the persp image 0.05 px, where the window's white part already covers
-  // a centroid error that drifts over a few frames (0.15 px there: 1.7 % more axes within 1 sigma,
-  // none more within 2 or 3).
-  float omni_radial_bias_px = 0.15f, omni_tangential_bias_px = 0.05f, persp_bias_px = 0.05f;
+  // unmixing), the occlusion, cut and misfit terms above in full, the omni azimuth's calibration
+  // error (1-2 mrad, fixed per direction) and the omni distance map's range error (relative; the
+  // reference calibration's rms_ground_rel is 0.58 %; `ballvision calibrate omni` prints a rig's).
+  // Renders show the range error the map leaves: 0.55-1.1 % on balls at rest or rolling at 2-3 m,
+  // 1.6 % at 5 m, in one direction for a second or more. The base is the one part nothing
+  // measures; set on renders (lob 251, bounce 257, clutter 253, the shared bounce and clutter)
+  // with the range term in place: at 0.15 px, 2 % more axes within 1 sigma and at most 0.2 % more
+  // within 2; the window's white part already covers a centroid error that drifts over frames.
+  float omni_radial_bias_px = 0.05f, omni_tangential_bias_px = 0.05f, persp_bias_px = 0.05f;
+  float omni_range_bias_rel = 0.006f;
   float omni_azimuth_bias_rad = 0.0015f;
   float size_range_rel = 0.05f;
   BallFinderConfig finder;  // ball choice and attention (core/detect), both cameras
