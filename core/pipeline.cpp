@@ -62,12 +62,12 @@ void OmniRaySigma(const OmniCalibration& cal, const BallDetection& det, const Ra
   const float el_per_px = std::clamp(per_px, 1e-4f, 0.05f);
   out.sigma_h_rad = std::hypot(s_px * az_per_px, config.omni_azimuth_sigma_rad * horiz);
   out.sigma_v_rad = s_px * el_per_px;
-  out.bias_h_rad = std::hypot((config.omni_tangential_bias_px + shared_extra_px) * az_per_px,
-                              config.omni_azimuth_bias_rad * horiz);
+  const float b_px = config.omni_bias_px + shared_extra_px;
+  out.bias_h_rad = std::hypot(b_px * az_per_px, config.omni_azimuth_bias_rad * horiz);
   // The distance map's range error, relative, as an elevation: d = h / tan(el), so
   // dd / d = del / (sin el cos el).
-  out.bias_v_rad = std::hypot((config.omni_radial_bias_px + shared_extra_px) * el_per_px,
-                              config.omni_range_bias_rel * std::fabs(ray.dir.z()) * horiz);
+  out.bias_v_rad =
+      std::hypot(b_px * el_per_px, config.omni_range_bias_rel * std::fabs(ray.dir.z()) * horiz);
 }
 
 // A sphere's outline is the cone of rays tangent to it, about the direction to its centre. Near

@@ -58,7 +58,7 @@ struct PipelineConfig {
   // measures; set on renders (lob 251, bounce 257, clutter 253, the shared bounce and clutter)
   // with the range term in place: at 0.15 px, 2 % more axes within 1 sigma and at most 0.2 % more
   // within 2; the window's white part already covers a centroid error that drifts over frames.
-  float omni_radial_bias_px = 0.05f, omni_tangential_bias_px = 0.05f, persp_bias_px = 0.05f;
+  float omni_bias_px = 0.05f, persp_bias_px = 0.05f;
   float omni_range_bias_rel = 0.006f;
   float omni_azimuth_bias_rad = 0.0015f;
   float size_range_rel = 0.05f;

@@ -611,7 +611,7 @@ void PrintOverall(const std::string& seq, const std::vector<FrameRecord>& recs,
   // often the true error per axis lies within the state's 1-sigma (68 % when calibrated).
   const char* kPhase[4] = {"seen by both", "omni only", "persp only", "coasting"};
   std::vector<double> by_phase[4];
-  int inside = 0, inside2 = 0, inside3 = 0, axes = 0, unobservable = 0;
+  int unobservable = 0;
   int phase_inside[4][3] = {}, phase_axes[4] = {};  // within 1, 2, 3 sigma, by phase
   for (const auto& r : recs) {
     const Truth* t = TruthAt(truth, r.state.t_us);
@@ -631,10 +631,6 @@ void PrintOverall(const std::string& seq, const std::vector<FrameRecord>& recs,
     const double sig[3] = {r.state.sigma_x_m, r.state.sigma_y_m, r.state.sigma_z_m};
     for (int j = 0; j < 3; ++j) {
       if (j == 2 && r.state.mode == BallMode::kRolling) continue;  // z is the floor constraint
-      inside += std::fabs(err[j]) <= sig[j];
-      inside2 += std::fabs(err[j]) <= 2 * sig[j];
-      inside3 += std::fabs(err[j]) <= 3 * sig[j];
-      ++axes;
       for (int m = 0; m < 3; ++m) phase_inside[phase][m] += std::fabs(err[j]) <= (m + 1) * sig[j];
       ++phase_axes[phase];
     }
@@ -646,12 +642,18 @@ void PrintOverall(const std::string& seq, const std::vector<FrameRecord>& recs,
                 Percentile(by_phase[k], 0.9) * 100, by_phase[k].size());
   }
   std::printf(" median / p90\n");
+  int inside[3] = {}, axes = 0;
+  for (int k = 0; k < 4; ++k) {
+    for (int m = 0; m < 3; ++m) inside[m] += phase_inside[k][m];
+    axes += phase_axes[k];
+  }
   if (axes > 0) {
     std::printf(
         "uncertainty: true error within the state's 1-sigma on %.1f %% of axes (68 %% when "
         "calibrated, n=%d), within 2 sigma on %.1f %% (95 %%), within 3 sigma on %.1f %% (99.7 "
         "%%); flagged unobservable in %d frames\n",
-        100.0 * inside / axes, axes, 100.0 * inside2 / axes, 100.0 * inside3 / axes, unobservable);
+        100.0 * inside[0] / axes, axes, 100.0 * inside[1] / axes, 100.0 * inside[2] / axes,
+        unobservable);
     std::printf("uncertainty by phase, within 1 / 2 / 3 sigma:");
     for (int k = 0; k < 4; ++k) {
       if (phase_axes[k] == 0) continue;
