@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <random>
 #include <vector>
 
@@ -610,29 +611,64 @@ TEST(BallFilter, TheRaysMeasuredNoiseCarriesOverToTheNextTrack) {
     return f.noise_level();
   };
   BallFilter quiet(Config()), stated(Config()), fresh(Config());
-  EXPECT_EQ(fresh.noise_level(), 1.f);
+  EXPECT_EQ(fresh.noise_level(), Config().ray_noise_prior);
   const float quiet_level = level_after(0.25f, quiet), stated_level = level_after(1.f, stated);
   EXPECT_LT(quiet_level, 0.12f);
   EXPECT_GT(stated_level, 0.35f);
   EXPECT_GT(stated_level, 5.f * quiet_level);
-  // 2 s later another ball, 3 frames of it: the same rays, a smaller sigma where the rays have
-  // shown they are quiet; the estimate itself is the same.
+  // 2 s later another ball, its first frame: the same rays, a smaller sigma where the rays have
+  // shown they are quiet (a fresh filter has only this frame's rows against its prior); the
+  // estimate itself is the same.
   const Eigen::Vector3f p(1.f, 2.5f, kR);
   BallState s_quiet, s_fresh;
-  for (int k = 150; k < 153; ++k) {
-    const BallObservation o = Observe(p, FrameUs(k), kBoth, k, 1.f, 0.f, 0.25f);
-    quiet.Update(o);
-    fresh.Update(o);
-  }
-  quiet.FillState(FrameUs(152), 0, s_quiet);
-  fresh.FillState(FrameUs(152), 0, s_fresh);
+  const BallObservation o = Observe(p, FrameUs(150), kBoth, 150, 1.f, 0.f, 0.25f);
+  quiet.Update(o);
+  fresh.Update(o);
+  quiet.FillState(FrameUs(150), 0, s_quiet);
+  fresh.FillState(FrameUs(150), 0, s_fresh);
   ASSERT_TRUE(s_quiet.found && s_fresh.found);
   EXPECT_NEAR((Pos(s_quiet) - Pos(s_fresh)).norm(), 0.f, 1e-5f);
   EXPECT_LT(s_quiet.sigma_y_m, 0.7f * s_fresh.sigma_y_m);
   EXPECT_LT(s_quiet.sigma_x_m, 0.7f * s_fresh.sigma_x_m);
-  // A reconfiguration is a new rig: back to the model's noise.
+  // A reconfiguration is a new rig: back to the prior.
   quiet.Configure(Config());
-  EXPECT_EQ(quiet.noise_level(), 1.f);
+  EXPECT_EQ(quiet.noise_level(), Config().ray_noise_prior);
+}
+
+// Unrelated stills, one frame a track (the static grid): each track's first frame has no contact
+// prior nor a model change to misfit, so it measures the noise; quiet rays bring the level down.
+TEST(BallFilter, OneFrameTracksMeasureTheNoiseToo) {
+  BallFilter f(Config());
+  for (int k = 0; k < 40; ++k) {
+    f.Reset();
+    const Eigen::Vector3f p(-2.f + 0.1f * k, 1.f + 0.08f * k, k % 2 ? kR : 0.3f);
+    f.Update(Observe(p, FrameUs(10 * k), kBoth, k, 1.f, 0.f, 0.25f));
+    ASSERT_TRUE(f.tracking());
+  }
+  EXPECT_LT(f.noise_level(), 0.5f * Config().ray_noise_prior);
+}
+
+// Before any ray has been measured, the white part is the stated noise scaled by the prior: a
+// fresh track (or a static still, one frame per track) neither claims the model's deliberately
+// wide noise nor less than the prior; a prior that is not a number is the model's.
+TEST(BallFilter, AFreshTracksSigmaIsThePriorsShareOfTheStatedNoise) {
+  const Eigen::Vector3f p(1.f, 2.5f, kR);
+  auto sigma_with = [&](float prior) {
+    BallFilterConfig c = Config();
+    c.ray_noise_prior = prior;
+    BallFilter f(c);
+    for (int k = 0; k < 3; ++k) f.Update(Observe(p, FrameUs(k), kBoth, k, 1.f, 0.f, 0.f));
+    BallState s;
+    f.FillState(FrameUs(2), 0, s);
+    EXPECT_TRUE(s.found);
+    EXPECT_NEAR((Pos(s) - p).norm(), 0.f, 1e-3f);
+    return Eigen::Vector3f(s.sigma_x_m, s.sigma_y_m, s.sigma_z_m);
+  };
+  const Eigen::Vector3f model = sigma_with(1.f), prior = sigma_with(0.25f);
+  // Noise-free rays: the level starts at the prior and the track's rows dilute it alike.
+  EXPECT_LT(prior.y(), 0.75f * model.y());
+  EXPECT_GT(prior.y(), 0.35f * model.y());
+  EXPECT_EQ(sigma_with(std::numeric_limits<float>::quiet_NaN()), model);
 }
 
 // Rays with independent Gaussian noise, `frac` of what they state, and that noise's variance

@@ -32,11 +32,12 @@ constexpr float kAmbiguousChi2 = 4.f;  // two flights this close in chi^2 but ap
 constexpr float kFloorChi2 = 9.f;      // the floor must not cost more than 3 sigma (1 dof: height)
 constexpr int kStereoFramesForOneStart = 3;  // a flight fit from the current state suffices
 // The rays' measured noise level: the rows of the last ~128 frames (4 s at 30 Hz), starting from
-// the model's as if 2 rows had agreed with it (forgotten like the rest; 8 held the level near
+// the configured prior as if 2 rows had shown it (forgotten like the rest; 8 held the level near
 // the model's for 2-3 s). A fit's variance factor is pulled towards it by 8 rows.
 constexpr float kNoiseForget = 1.f - 1.f / 128.f, kNoiseStartRows = 2.f, kNoisePriorRows = 8.f;
-// A segment's first frames do not measure the noise: their fit leans on the prior and the model
-// change, and at 20 % of the stated noise they put the level 2x high for seconds after each bounce.
+// A later segment's first frames do not measure the noise: their fit leans on the prior and the
+// model change, and at 20 % of the stated noise they put the level 2x high for seconds after each
+// bounce.
 constexpr int kNoiseSegmentFrames = 6;
 
 float Seconds(uint64_t a_us, uint64_t b_us) {  // a - b in seconds, signed
@@ -159,7 +160,8 @@ Mat6 CholeskyInverse(const Mat6& l) {
 void BallFilter::Configure(const BallFilterConfig& config) {
   cfg_ = config;
   cfg_.max_window = std::clamp(cfg_.max_window, 4, kMaxWindow);
-  noise_chi2_ = noise_dof_ = kNoiseStartRows;
+  noise_dof_ = kNoiseStartRows;
+  noise_chi2_ = kNoiseStartRows * NoisePrior();
   Reset();
 }
 
@@ -439,7 +441,7 @@ void BallFilter::StartTrack(const BallObservation& obs) {
   Eigen::Vector3f p0 = Eigen::Vector3f::Zero();
   PointOf(obs, p0);
   seg_ = Segment{};
-  seg_.start_us = obs.t_us;
+  seg_.start_us = track_start_us_ = obs.t_us;
   seg_.motion = p0.z() - cfg_.ball_radius_m < cfg_.roll_tolerance_m + 0.01f * p0.head<2>().norm()
                     ? Motion::kRolling
                     : Motion::kAir;
@@ -728,7 +730,9 @@ uint16_t BallFilter::Update(const BallObservation& in) {
   if (!tracking_ || obs.t_us > t_ref_us_ + cfg_.coast_us) {
     if (!have_point) return kFlagOutlierRejected;
     StartTrack(obs);
-    return tracking_ ? UpdateObservable() : static_cast<uint16_t>(kFlagOutlierRejected);
+    if (!tracking_) return kFlagOutlierRejected;
+    LearnRayNoise();
+    return UpdateObservable();
   }
   BallObservation kept;
   const float off = GateRays(obs, kept);
@@ -1053,7 +1057,9 @@ void BallFilter::LearnRayNoise() {
   if (!tracking_ || !fit_.ok || count_ == 0 || Newest(0).t_us != t_ref_us_) return;
   int seg_frames = 0;
   while (seg_frames < count_ && Newest(seg_frames).t_us >= seg_.start_us) ++seg_frames;
-  if (seg_frames < kNoiseSegmentFrames) return;
+  // A track's own first segment has no contact prior and no model change to misfit: its frames
+  // count from the first (a static still, one frame a track, measures the noise too).
+  if (seg_frames < kNoiseSegmentFrames && seg_.start_us != track_start_us_) return;
   const Stored& s = Newest(0);
   const Eigen::Matrix3f c = fit_.cov.topLeftCorner<3, 3>() / fit_.inflation;
   const float cap = kHuberSigma * kHuberSigma * noise_level();
@@ -1074,8 +1080,14 @@ void BallFilter::LearnRayNoise() {
   }
 }
 
+float BallFilter::NoisePrior() const {
+  return std::isfinite(cfg_.ray_noise_prior) ? std::clamp(cfg_.ray_noise_prior, kMinQuietScale, 1.f)
+                                             : 1.f;
+}
+
 float BallFilter::noise_level() const {
-  return noise_dof_ > 0.f ? std::clamp(noise_chi2_ / noise_dof_, kMinQuietScale, 1.f) : 1.f;
+  return noise_dof_ > 0.f ? std::clamp(noise_chi2_ / noise_dof_, kMinQuietScale, 1.f)
+                          : NoisePrior();
 }
 
 bool BallFilter::SigmaAt(uint64_t t_us, Eigen::Vector3f& sigma_m, bool reported) const {

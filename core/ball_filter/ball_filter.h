@@ -44,6 +44,10 @@ struct BallFilterConfig {
   // A constant acceleration the model does not have (rolling resistance off its value, spin)
   // moves the end of a window fit of span T by a T^2 / 12: part of the reported sigma.
   float model_accel_mps2 = 0.1f;
+  // The rays' noise level before any has been measured (a variance factor of their stated noise,
+  // see noise_level()): what a fresh track, or one too short to measure it, reports. The stated
+  // noise is 1.5-2x what the rays showed on renders (PipelineConfig), so (1 / 1.75)^2.
+  float ray_noise_prior = 0.33f;
   uint32_t coast_us = 500000;  // prediction only, then lost
   float max_range_m = 25.f;    // beyond: far outside any field
   float max_height_m = 6.f;
@@ -108,10 +112,11 @@ class BallFilter {
   /// The position along the rays is determined (false: e.g. one camera, no motion yet).
   bool observable() const { return observable_; }
   /// How noisy the rays have measured against their noise model over recent frames, as a
-  /// variance factor in [1/64, 1] (1 until rays have been seen).
+  /// variance factor in [1/64, 1] (ray_noise_prior until rays have been seen).
   float noise_level() const;
 
  private:
+  float NoisePrior() const;  // ray_noise_prior, clamped to what noise_level() can be
   struct StoredRay {
     Eigen::Vector3f dir;
     float sigma_h, sigma_v, range, range_sigma, bias_h, bias_v;
@@ -207,8 +212,9 @@ class BallFilter {
   bool tracking_ = false;
   bool have_time_ = false;
   bool observable_ = false;
-  uint64_t last_t_us_ = 0;  // newest timestamp seen (ordering check)
-  uint64_t t_ref_us_ = 0;   // time of the estimate = newest accepted observation
+  uint64_t last_t_us_ = 0;       // newest timestamp seen (ordering check)
+  uint64_t t_ref_us_ = 0;        // time of the estimate = newest accepted observation
+  uint64_t track_start_us_ = 0;  // the track's first frame
   Segment seg_;
   Fit fit_;
   float b_ = 0.7f;
