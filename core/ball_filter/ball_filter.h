@@ -45,8 +45,8 @@ struct BallFilterConfig {
   // moves the end of a window fit of span T by a T^2 / 12: part of the reported sigma.
   float model_accel_mps2 = 0.1f;
   // The rays' noise level before any has been measured (a variance factor of their stated noise,
-  // see noise_level()): what a fresh track, or one too short to measure it, reports. The stated
-  // noise is 1.5-2x what the rays showed on renders (PipelineConfig), so (1 / 1.75)^2.
+  // see noise_level()): where the first track's first frame starts, as if 2 rows had shown it.
+  // The stated noise is 1.5-2x what the rays showed on renders (PipelineConfig), so (1/1.75)^2.
   float ray_noise_prior = 0.33f;
   uint32_t coast_us = 500000;  // prediction only, then lost
   float max_range_m = 25.f;    // beyond: far outside any field
