@@ -16,6 +16,7 @@ constexpr size_t kStereoCandidates = 4;  // per camera, in the acquisition choic
 // the distractors behind a line stand still).
 constexpr float kMinRollOutSpeedMps = 0.3f;
 constexpr float kMaxCandidateRangeM = 6.f;
+constexpr float kPi = 3.14159265358979f;
 constexpr float kOnFloorM = 0.05f;  // a ball at rest lies on the floor  // farther, the omni floor
                                     // point is too coarse to track
 constexpr float kAdaptMaxGapM = 0.02f;  // rays of a confirmed ball meet this close
@@ -38,36 +39,6 @@ void RobotToField(float px, float py, float s, float c, float x, float y, float&
 float AngleBetween(const Eigen::Vector3f& a, const Eigen::Vector3f& b) {
   const float c = a.normalized().dot(b.normalized());
   return std::acos(std::clamp(c, -1.f, 1.f));
-}
-
-// Angular noise of an omni ray: the centroid noise (grown with the region) converted by the
-// mirror's local scale, radially (elevation, from the neighbouring pixel's ray) and tangentially
-// (azimuth: one pixel is 1/rho of a turn, scaled by the ray's horizontal extent).
-void OmniRaySigma(const OmniCalibration& cal, const BallDetection& det, const Ray& ray,
-                  float extra_px, float shared_extra_px, const PipelineConfig& config,
-                  BallRay& out) {
-  const float du = det.u_px - cal.center_u, dv = det.v_px - cal.center_v;
-  const float rho = std::max(std::hypot(du, dv), 1.0f);
-  const float s_px = config.omni_sigma_px + config.omni_sigma_per_radius * det.radius_px + extra_px;
-  const float horiz = std::hypot(ray.dir.x(), ray.dir.y());
-  const float az_per_px = std::max(horiz, 0.05f) / rho;
-  float per_px = 0.01f;  // fallback: ~0.6 deg per pixel
-  for (const float step : {-1.0f, 1.0f}) {
-    auto n = OmniPixelToRayExtended(cal, det.u_px + step * du / rho, det.v_px + step * dv / rho);
-    if (n.ok()) {
-      per_px = AngleBetween(ray.dir, n->dir);
-      break;
-    }
-  }
-  const float el_per_px = std::clamp(per_px, 1e-4f, 0.05f);
-  out.sigma_h_rad = std::hypot(s_px * az_per_px, config.omni_azimuth_sigma_rad * horiz);
-  out.sigma_v_rad = s_px * el_per_px;
-  const float b_px = config.omni_bias_px + shared_extra_px;
-  out.bias_h_rad = std::hypot(b_px * az_per_px, config.omni_azimuth_bias_rad * horiz);
-  // The distance map's range error, relative, as an elevation: d = h / tan(el), so
-  // dd / d = del / (sin el cos el).
-  out.bias_v_rad =
-      std::hypot(b_px * el_per_px, config.omni_range_bias_rel * std::fabs(ray.dir.z()) * horiz);
 }
 
 // A sphere's outline is the cone of rays tangent to it, about the direction to its centre. Near
@@ -211,6 +182,39 @@ float SizeMisfitPx(const ImagePrediction& pred, float radius_px) {
 }
 
 }  // namespace
+
+// Angular noise of an omni ray: the centroid noise (grown with the region) converted by the
+// mirror's local scale, radially (elevation, from the neighbouring pixel's ray) and tangentially
+// (azimuth: one pixel is 1/rho of a turn, scaled by the ray's horizontal extent).
+void OmniRaySigma(const OmniCalibration& cal, const BallDetection& det, const Ray& ray,
+                  float extra_px, float shared_extra_px, const PipelineConfig& config,
+                  BallRay& out) {
+  const float du = det.u_px - cal.center_u, dv = det.v_px - cal.center_v;
+  const float rho = std::max(std::hypot(du, dv), 1.0f);
+  const float s_px = config.omni_sigma_px + config.omni_sigma_per_radius * det.radius_px + extra_px;
+  const float horiz = std::hypot(ray.dir.x(), ray.dir.y());
+  const float az_per_px = std::max(horiz, 0.05f) / rho;
+  float per_px = 0.01f;  // fallback: ~0.6 deg per pixel
+  for (const float step : {-1.0f, 1.0f}) {
+    auto n = OmniPixelToRayExtended(cal, det.u_px + step * du / rho, det.v_px + step * dv / rho);
+    if (n.ok()) {
+      per_px = AngleBetween(ray.dir, n->dir);
+      break;
+    }
+  }
+  const float el_per_px = std::clamp(per_px, 1e-4f, 0.05f);
+  out.sigma_h_rad = std::hypot(s_px * az_per_px, config.omni_azimuth_sigma_rad * horiz);
+  out.sigma_v_rad = s_px * el_per_px;
+  const float b_px = config.omni_bias_px + shared_extra_px;
+  out.bias_h_rad = std::hypot(b_px * az_per_px, config.omni_azimuth_bias_rad * horiz);
+  // n pixels lost on the shaded side move a disc's centroid by n / (pi r), radially only.
+  const float shade_px = config.omni_shade_lost_px / (kPi * std::max(det.radius_px, 1.f));
+  const float bv_px = std::max(config.omni_bias_px, shade_px) + shared_extra_px;
+  // The distance map's range error, relative, as an elevation: d = h / tan(el), so
+  // dd / d = del / (sin el cos el).
+  out.bias_v_rad =
+      std::hypot(bv_px * el_per_px, config.omni_range_bias_rel * std::fabs(ray.dir.z()) * horiz);
+}
 
 OmniScanConfig PipelineOmniScan(const OmniCalibration& cal, const PipelineConfig& config) {
   OmniScanConfig scan = ReferenceOmniScanConfig(cal.center_u, cal.center_v);

@@ -49,17 +49,21 @@ struct PipelineConfig {
   float omni_azimuth_sigma_rad = 0.006f;
   float persp_sigma_px = 0.3f, persp_sigma_per_radius = 0.01f;
   // The part of a ray's error that neighbouring frames share, which the filter's window cannot
-  // average away (reported sigma only): a base centroid bias (shading, the soft centroid's
-  // unmixing), the occlusion, cut and misfit terms above in full, the omni azimuth's calibration
-  // error (1-2 mrad, fixed per direction) and the omni distance map's range error (relative; the
-  // reference calibration's rms_ground_rel is 0.58 %; `ballvision calibrate omni` prints a rig's).
-  // Renders show the range error the map leaves: 0.55-1.1 % on balls at rest or rolling at 2-3 m,
-  // 1.6 % at 5 m, in one direction for a second or more. The base is the one part nothing
-  // measures; set on renders (lob 251, bounce 257, clutter 253, the shared bounce and clutter)
-  // with the range term in place: at 0.15 px, 2 % more axes within 1 sigma and at most 0.2 % more
-  // within 2; the window's white part already covers a centroid error that drifts over frames.
+  // average away (reported sigma only): a base centroid bias, the occlusion, cut and misfit terms
+  // above in full, the omni azimuth's calibration error (1-2 mrad, fixed per direction) and the
+  // omni distance map's range error (relative). Both measured apart on renders (2026-12-04):
+  // - the omni region's centroid lies outward of the true silhouette's (the ball's shaded lower
+  //   side is lost): median 0.02 px at radius 11 px, 0.08 at 7.5, 0.12-0.14 at 4-5 (4-7 m), over
+  //   6 sets; about 1.5 pixels lost (n / (pi r)). The mirror's ~10 mrad/px makes 0.13 px ~1 mrad
+  //   of elevation, and its range effect grows as R^2 when both cameras triangulate;
+  // - the map itself, scored against the true ground map (tools/python/score_omni_calib.py):
+  //   0.40 % rms up to 5 m, where the calibration's residual (rms_ground_rel, 0.58 % on the
+  //   reference rig) also holds the carpet points' own noise.
+  // The persp centroid sits ~0.1 px high at 4-7 m; as its base, 0.1 px added 1 % within 1 sigma
+  // and nothing within 2 or 3 on 9 sets, so it stays at 0.05.
   float omni_bias_px = 0.05f, persp_bias_px = 0.05f;
-  float omni_range_bias_rel = 0.006f;
+  float omni_shade_lost_px = 1.5f;
+  float omni_range_bias_rel = 0.004f;
   float omni_azimuth_bias_rad = 0.0015f;
   float size_range_rel = 0.05f;
   BallFinderConfig finder;  // ball choice and attention (core/detect), both cameras
@@ -118,6 +122,14 @@ struct MeasurementInfo {
 /// The omni scan pattern the pipeline builds for a calibration: the reference ball profile plus
 /// the field-feature rays (when config.field_features), out to where the distance map ends.
 OmniScanConfig PipelineOmniScan(const OmniCalibration& cal, const PipelineConfig& config);
+
+/// An omni detection's ray noise for the filter (out's sigma_h/v and bias_h/v): the centroid's
+/// noise and shared bias, by the mirror's local scale at the detection, the shaded side's lost
+/// pixels, the azimuth's and the distance map's calibration errors. extra_px / shared_extra_px:
+/// what occlusion, a cut or a size misfit add to the noise / to the bias.
+void OmniRaySigma(const OmniCalibration& cal, const BallDetection& det, const Ray& ray,
+                  float extra_px, float shared_extra_px, const PipelineConfig& config,
+                  BallRay& out);
 
 class Pipeline {
  public:

@@ -151,6 +151,42 @@ TEST_F(PipelineTest, AHalfHiddenBallsOffsetIsInTheReportedSigma) {
   EXPECT_LT(s.sigma_x_m, 3.f * std::fabs(err.x()));  // covered, not swamped (46 / 72 mm)
 }
 
+// Renders lose about 1.5 pixels on the ball's shaded lower side at every size, which moves a small
+// omni region's centroid outward (0.12-0.14 px at 4-7 m, radius 4-5 px): a shared elevation error
+// of n / (pi r) pixels, radial only, where it exceeds the base.
+TEST(OmniRaySigmaTest, TheShadedSidesLostPixelsBiasASmallRegionsElevation) {
+  const RigCalibration cal = cli::MakeDemoCalibration();
+  PipelineConfig config;
+  config.omni_range_bias_rel = 0.f;  // the centroid's part alone
+  float u = 0, v = 0;
+  ASSERT_TRUE(OmniProject(cal.omni, Eigen::Vector3f(0.3f, 4.5f, 0.11f), u, v).ok());
+  const Result<Ray> ray = OmniPixelToRayExtended(cal.omni, u, v);
+  ASSERT_TRUE(ray.ok());
+  BallDetection det;
+  det.found = true;
+  det.u_px = u;
+  det.v_px = v;
+  float bias_h_small = 0;
+  for (const float r : {3.f, 4.f, 7.5f, 11.f, 30.f}) {
+    det.radius_px = r;
+    BallRay out;
+    OmniRaySigma(cal.omni, det, *ray, 0.f, 0.f, config, out);
+    // sigma_v is the white noise's pixels by the same elevation per pixel
+    const float white_px = config.omni_sigma_px + config.omni_sigma_per_radius * r;
+    const float bias_px = std::max(config.omni_bias_px, 1.5f / (3.14159265f * r));
+    EXPECT_NEAR(out.bias_v_rad / out.sigma_v_rad, bias_px / white_px, 1e-4f) << r;
+    if (r == 3.f) bias_h_small = out.bias_h_rad;
+    EXPECT_FLOAT_EQ(out.bias_h_rad, bias_h_small) << r;  // the tangential part keeps its base
+  }
+  config.omni_shade_lost_px = 0.f;
+  det.radius_px = 4.f;
+  BallRay base;
+  OmniRaySigma(cal.omni, det, *ray, 0.f, 0.f, config, base);
+  EXPECT_NEAR(base.bias_v_rad / base.sigma_v_rad,
+              config.omni_bias_px / (config.omni_sigma_px + 4.f * config.omni_sigma_per_radius),
+              1e-4f);
+}
+
 // Within a metre the perspective image cuts the ball at its border or corner: the outline's arc,
 // fitted as the cone of rays tangent to the sphere, still gives its centre.
 TEST_F(PipelineTest, ABallCutByThePerspImageBorderIsTriangulated) {
