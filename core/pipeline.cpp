@@ -163,6 +163,18 @@ void OmniSphereCentre(const OmniCalibration& cal, float radius_px, float& u, flo
   v -= shift * ey;
 }
 
+// The lit ball's shaded lower side is partly lost to the colour table: in the omni image the side
+// towards the image centre. n pixels lost there move a disc's centroid outward by n / (pi r).
+void ShadedSideCentre(const OmniCalibration& cal, float radius_px, float lost_px, float& u,
+                      float& v) {
+  const float du = u - cal.center_u, dv = v - cal.center_v;
+  const float rho = std::hypot(du, dv);
+  if (!(rho > 1.f) || !(radius_px > 1.f) || !(lost_px > 0.f)) return;
+  const float shift = std::min(lost_px / (kPi * radius_px), 0.25f * radius_px);
+  u -= shift * du / rho;
+  v -= shift * dv / rho;
+}
+
 // A disc cut by a straight edge: its visible part's centroid is off the centre by 1.2-1.75 times
 // the radius its area lacks (1.45 at half visible, 1.75 with a tenth hidden). The fit's weights
 // take the missing radius; the shared error, the frames' common offset, the geometry's, up to the
@@ -207,8 +219,9 @@ void OmniRaySigma(const OmniCalibration& cal, const BallDetection& det, const Ra
   out.sigma_v_rad = s_px * el_per_px;
   const float b_px = config.omni_bias_px + shared_extra_px;
   out.bias_h_rad = std::hypot(b_px * az_per_px, config.omni_azimuth_bias_rad * horiz);
-  // n pixels lost on the shaded side move a disc's centroid by n / (pi r), radially only.
-  const float shade_px = config.omni_shade_lost_px / (kPi * std::max(det.radius_px, 1.f));
+  // What the shaded side's lost pixels leave after ShadedSideCentre (their count varies with the
+  // light), radially only.
+  const float shade_px = config.omni_shade_spread_px / (kPi * std::max(det.radius_px, 1.f));
   const float bv_px = std::max(config.omni_bias_px, shade_px) + shared_extra_px;
   // The distance map's range error, relative, as an elevation: d = h / tan(el), so
   // dd / d = del / (sin el cos el).
@@ -677,7 +690,10 @@ Pipeline::CameraRays Pipeline::DetectionRays(const FrameInput& in, BallState& ou
   if (out.omni.found) {
     out.flags |= kFlagSeenOmni;
     float cu = out.omni.u_px, cv = out.omni.v_px;
-    if (!rays.omni_cut) OmniSphereCentre(cal.omni, out.omni.radius_px, cu, cv);
+    if (!rays.omni_cut) {
+      ShadedSideCentre(cal.omni, out.omni.radius_px, config_.omni_shade_lost_px, cu, cv);
+      OmniSphereCentre(cal.omni, out.omni.radius_px, cu, cv);
+    }
     auto ray = OmniPixelToRayExtended(cal.omni, cu, cv);
     if (ray.ok()) {
       rays.omni = *ray;

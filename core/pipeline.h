@@ -51,18 +51,20 @@ struct PipelineConfig {
   // The part of a ray's error that neighbouring frames share, which the filter's window cannot
   // average away (reported sigma only): a base centroid bias, the occlusion, cut and misfit terms
   // above in full, the omni azimuth's calibration error (1-2 mrad, fixed per direction) and the
-  // omni distance map's range error (relative). Both measured apart on renders (2026-12-04):
-  // - the omni region's centroid lies outward of the true silhouette's (the ball's shaded lower
-  //   side is lost): median 0.02 px at radius 11 px, 0.08 at 7.5, 0.12-0.14 at 4-5 (4-7 m), over
-  //   6 sets; about 1.5 pixels lost (n / (pi r)). The mirror's ~10 mrad/px makes 0.13 px ~1 mrad
-  //   of elevation, and its range effect grows as R^2 when both cameras triangulate;
+  // omni distance map's range error (relative). Measured apart on renders (2026-12-04):
+  // - the omni region's centroid lies outward of the true silhouette's (the lit ball's shaded
+  //   lower side is lost): median 0.02 px at radius 11 px, 0.08 at 7.5, 0.12-0.14 at 4-5 (4-7 m)
+  //   over 6 sets, as if 1.5 pixels were lost (n / (pi r)), 1.5 +- 1 from set to set. At the
+  //   mirror's ~10 mrad/px 0.13 px is ~1 mrad of elevation, and triangulated its range error grows
+  //   as R^2: a lob's first second at 4-6 m was 6-12 cm long. The ray is corrected for the 1.5
+  //   pixels; the spread stays in the sigma;
   // - the map itself, scored against the true ground map (tools/python/score_omni_calib.py):
   //   0.40 % rms up to 5 m, where the calibration's residual (rms_ground_rel, 0.58 % on the
   //   reference rig) also holds the carpet points' own noise.
-  // The persp centroid sits ~0.1 px high at 4-7 m; as its base, 0.1 px added 1 % within 1 sigma
-  // and nothing within 2 or 3 on 9 sets, so it stays at 0.05.
+  // The persp centroid sits ~0.1 px high at 4-7 m, but with a sign that changes with the light
+  // nearer: corrected like the omni's, lobs came out worse; its base stays 0.05 px.
   float omni_bias_px = 0.05f, persp_bias_px = 0.05f;
-  float omni_shade_lost_px = 1.5f;
+  float omni_shade_lost_px = 1.5f, omni_shade_spread_px = 1.0f;
   float omni_range_bias_rel = 0.004f;
   float omni_azimuth_bias_rad = 0.0015f;
   float size_range_rel = 0.05f;

@@ -173,18 +173,65 @@ TEST(OmniRaySigmaTest, TheShadedSidesLostPixelsBiasASmallRegionsElevation) {
     OmniRaySigma(cal.omni, det, *ray, 0.f, 0.f, config, out);
     // sigma_v is the white noise's pixels by the same elevation per pixel
     const float white_px = config.omni_sigma_px + config.omni_sigma_per_radius * r;
-    const float bias_px = std::max(config.omni_bias_px, 1.5f / (3.14159265f * r));
+    const float bias_px =
+        std::max(config.omni_bias_px, config.omni_shade_spread_px / (3.14159265f * r));
     EXPECT_NEAR(out.bias_v_rad / out.sigma_v_rad, bias_px / white_px, 1e-4f) << r;
     if (r == 3.f) bias_h_small = out.bias_h_rad;
     EXPECT_FLOAT_EQ(out.bias_h_rad, bias_h_small) << r;  // the tangential part keeps its base
   }
-  config.omni_shade_lost_px = 0.f;
+  config.omni_shade_spread_px = 0.f;
   det.radius_px = 4.f;
   BallRay base;
   OmniRaySigma(cal.omni, det, *ray, 0.f, 0.f, config, base);
   EXPECT_NEAR(base.bias_v_rad / base.sigma_v_rad,
               config.omni_bias_px / (config.omni_sigma_px + 4.f * config.omni_sigma_per_radius),
               1e-4f);
+}
+
+// The omni ray is corrected for the pixels renders lose on the lit ball's shaded lower side (the
+// side towards the image centre): here the region's 4 innermost pixels are taken away, which
+// puts the ball at 4 m 1.8 cm long on the floor; corrected, 0.4 cm. Where nothing is lost (these
+// frames' flat colour table keeps every pixel) the correction costs about as much the other way.
+TEST_F(PipelineTest, TheOmniRayIsCorrectedForTheShadedSidesLostPixels) {
+  const Eigen::Vector3f ball(0.3f, 4.0f, 0.11f);
+  std::vector<uint8_t> bg, persp_bg;
+  renderer_->Render(Eigen::Vector3f(0.f, 0.f, -5.f), 7, bg, persp_bg);  // no ball: background
+  auto range_error = [&](int lost_pairs, float lost_px) {
+    PipelineConfig config;
+    config.omni_shade_lost_px = lost_px;
+    Pipeline p;
+    EXPECT_TRUE(p.Init(cal_, *lut_, config).ok());
+    renderer_->Render(ball, 7, omni_, persp_);
+    for (int l = 0; l < lost_pairs; ++l) {  // the innermost YUYV pair of the ball's pixels
+      size_t inner = 0;
+      double inner_rho = 1e9;
+      for (int v = 0; v < 480; ++v) {
+        for (int i = 0; i < 320; ++i) {
+          const size_t o = (static_cast<size_t>(v) * 640 + 2 * i) * 2;
+          if (std::equal(omni_.begin() + o, omni_.begin() + o + 4, bg.begin() + o)) continue;
+          const double rho = std::hypot(2 * i + 0.5 - cal_.omni.center_u, v - cal_.omni.center_v);
+          if (rho < inner_rho) inner_rho = rho, inner = o;
+        }
+      }
+      std::copy(bg.begin() + inner, bg.begin() + inner + 4, omni_.begin() + inner);
+    }
+    FrameInput in;
+    in.t_us = 1000000;
+    in.omni = MakeYuyvImage(omni_.data(), 640, 480);
+    BallState s;
+    EXPECT_TRUE(p.Process(in, s).ok());
+    EXPECT_TRUE(s.found);
+    return Eigen::Vector2f(s.x_m, s.y_m).norm() - ball.head<2>().norm();
+  };
+  const float kept = range_error(0, 0.f), lost = range_error(2, 0.f);
+  const float corrected = range_error(2, 1.5f), needless = range_error(0, 1.5f);
+  EXPECT_LT(std::fabs(kept), 0.003f);
+  EXPECT_GT(lost, 0.012f);  // the centroid moved outward: long
+  EXPECT_LT(std::fabs(corrected), 0.006f);
+  EXPECT_GT(lost - corrected, 0.008f);
+  EXPECT_LT(lost - corrected, 0.02f);
+  EXPECT_LT(needless, 0.f);
+  EXPECT_GT(needless, -0.015f);
 }
 
 // Within a metre the perspective image cuts the ball at its border or corner: the outline's arc,
