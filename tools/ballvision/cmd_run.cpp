@@ -586,6 +586,29 @@ bool WritePlotData(const std::string& dir, const std::vector<FrameRecord>& recs,
   return true;
 }
 
+// The raw measurements (before the filter) against truth.
+void PrintMeasurementError(const std::vector<FrameRecord>& recs,
+                           const std::map<uint64_t, Truth>& truth) {
+  std::vector<double> e;
+  double sx = 0, sy = 0, sz = 0;
+  for (const auto& r : recs) {
+    const Truth* t = TruthAt(truth, r.state.t_us);
+    if (!t || !r.meas.valid || !r.meas.z_valid) continue;
+    e.push_back(Dist3(r.meas.p_m, *t));
+    sx += r.meas.p_m.x() - t->x;
+    sy += r.meas.p_m.y() - t->y;
+    sz += r.meas.p_m.z() - t->z;
+  }
+  if (!e.empty()) {
+    const double n = static_cast<double>(e.size());
+    std::printf(
+        "measurement 3D error: median %.2f cm, p90 %.2f cm (n=%zu); mean offset x %+.2f "
+        "y %+.2f z %+.2f cm\n",
+        Median(e) * 100, Percentile(e, 0.9) * 100, e.size(), sx / n * 100, sy / n * 100,
+        sz / n * 100);
+  }
+}
+
 // Detection and state error, then the raw measurements (before the filter).
 void PrintOverall(const std::string& seq, const std::vector<FrameRecord>& recs,
                   const std::map<uint64_t, Truth>& truth) {
@@ -613,6 +636,7 @@ void PrintOverall(const std::string& seq, const std::vector<FrameRecord>& recs,
   std::vector<double> by_phase[4];
   int unobservable = 0;
   int phase_inside[4][3] = {}, phase_axes[4] = {};  // within 1, 2, 3 sigma, by phase
+  std::vector<double> in_sigmas;                    // |error| / sigma per axis
   for (const auto& r : recs) {
     const Truth* t = TruthAt(truth, r.state.t_us);
     if (!t || !r.state.found) continue;
@@ -633,6 +657,7 @@ void PrintOverall(const std::string& seq, const std::vector<FrameRecord>& recs,
       if (j == 2 && r.state.mode == BallMode::kRolling) continue;  // z is the floor constraint
       for (int m = 0; m < 3; ++m) phase_inside[phase][m] += std::fabs(err[j]) <= (m + 1) * sig[j];
       ++phase_axes[phase];
+      in_sigmas.push_back(sig[j] > 0 ? std::fabs(err[j]) / sig[j] : 1e9);
     }
   }
   std::printf("state 3D error by phase:");
@@ -654,6 +679,11 @@ void PrintOverall(const std::string& seq, const std::vector<FrameRecord>& recs,
         "%%); flagged unobservable in %d frames\n",
         100.0 * inside[0] / axes, axes, 100.0 * inside[1] / axes, 100.0 * inside[2] / axes,
         unobservable);
+    // The shape: heavier tails than a Gaussian's show as a small 68th and a large 99.7th.
+    std::printf(
+        "uncertainty percentiles: |error| / sigma at the 68th / 95th / 99.7th %.2f / %.2f / %.2f "
+        "(1 / 1.96 / 3 when calibrated)\n",
+        Percentile(in_sigmas, 0.68), Percentile(in_sigmas, 0.95), Percentile(in_sigmas, 0.997));
     std::printf("uncertainty by phase, within 1 / 2 / 3 sigma:");
     for (int k = 0; k < 4; ++k) {
       if (phase_axes[k] == 0) continue;
@@ -663,24 +693,7 @@ void PrintOverall(const std::string& seq, const std::vector<FrameRecord>& recs,
     }
     std::printf("\n");
   }
-  std::vector<double> e;
-  double sx = 0, sy = 0, sz = 0;
-  for (const auto& r : recs) {
-    const Truth* t = TruthAt(truth, r.state.t_us);
-    if (!t || !r.meas.valid || !r.meas.z_valid) continue;
-    e.push_back(Dist3(r.meas.p_m, *t));
-    sx += r.meas.p_m.x() - t->x;
-    sy += r.meas.p_m.y() - t->y;
-    sz += r.meas.p_m.z() - t->z;
-  }
-  if (!e.empty()) {
-    const double n = static_cast<double>(e.size());
-    std::printf(
-        "measurement 3D error: median %.2f cm, p90 %.2f cm (n=%zu); mean offset x %+.2f "
-        "y %+.2f z %+.2f cm\n",
-        Median(e) * 100, Percentile(e, 0.9) * 100, e.size(), sx / n * 100, sy / n * 100,
-        sz / n * 100);
-  }
+  PrintMeasurementError(recs, truth);
 }
 
 // physics.bounces[].t_s of the renderer's scene_extra.json; none when the file has none.
