@@ -418,6 +418,54 @@ TEST(BallFilter, AContactOnAFrameTimeGivesTheRightRestitution) {
   }
 }
 
+// The restitution is the ball's and the floor's: learned on one track, it predicts the next
+// ball's bounces before that ball has bounced (the 2.5 s look-ahead from a drop's first frames),
+// after the track was lost or reset. A reconfiguration is a new venue: back to the configured value.
+TEST(BallFilter, TheLearnedRestitutionPredictsTheNextTracksBounces) {
+  const float b_true = 0.82f;
+  auto drop = [&](const Eigen::Vector3f& p0, int n, std::vector<Eigen::Vector3f>& truth) {
+    Sim ball{p0, Eigen::Vector3f::Zero()};
+    ball.b = b_true;
+    for (int k = 0; k < n; ++k) {
+      truth.push_back(ball.p);
+      ball.Step(1.f / 30.f);
+    }
+    return ball.contacts_s;
+  };
+  std::vector<Eigen::Vector3f> first, second;
+  drop(Eigen::Vector3f(0.f, 2.f, 1.2f), 75, first);
+  const std::vector<double> contacts = drop(Eigen::Vector3f(0.6f, 2.5f, 1.0f), 60, second);
+  ASSERT_GE(contacts.size(), 2u);
+  const int k0 = 75 + 60;  // the second ball 2 s after the first was last seen
+
+  BallFilter venue(Config()), fresh(Config());
+  for (int k = 0; k < 75; ++k) venue.Update(Observe(first[k], FrameUs(k), kBoth, k));
+  EXPECT_NEAR(venue.bounce_factor(), b_true, 0.03f);
+  BallState lost;
+  venue.FillState(FrameUs(k0 - 1), 0, lost);
+  ASSERT_TRUE(!lost.found && (lost.flags & kFlagLost));
+  venue.Reset();  // as the pipeline does when a ball leaves the field
+  // The second contact, predicted from the second ball's first 8 frames (its first contact is
+  // ~0.4 s later): off by 2 b |vz| / g times the error in b.
+  double err_venue = 0, err_fresh = 0;
+  for (int i = 0; i < 8; ++i) {
+    const int k = k0 + i;
+    const BallObservation o = Observe(second[i], FrameUs(k), kBoth, k);
+    venue.Update(o);
+    fresh.Update(o);
+    uint64_t t[4];
+    float x[4], y[4];
+    ASSERT_GE(venue.ContactsAfter(FrameUs(k), t, x, y, 4), 2) << i;
+    err_venue = (static_cast<double>(t[1]) - FrameUs(k0)) * 1e-6 - contacts[1];
+    ASSERT_GE(fresh.ContactsAfter(FrameUs(k), t, x, y, 4), 2) << i;
+    err_fresh = (static_cast<double>(t[1]) - FrameUs(k0)) * 1e-6 - contacts[1];
+  }
+  EXPECT_LT(std::fabs(err_venue), 0.02);
+  EXPECT_GT(std::fabs(err_fresh), 0.06);  // b 0.7 for 0.82
+  venue.Configure(Config());
+  EXPECT_EQ(venue.bounce_factor(), Config().bounce_factor);
+}
+
 TEST(BallFilter, KickThatReversesDirectionIsFollowedWithin3Frames) {
   Sim ball{Eigen::Vector3f(-1.f, 3.f, kR), Eigen::Vector3f(2.f, 0.f, 0.f)};
   BallFilter f(Config());

@@ -31,6 +31,7 @@ constexpr float kUnknownDepthM = 4.f;          // where a lone ray above the flo
 constexpr float kAmbiguousChi2 = 4.f;  // two flights this close in chi^2 but apart: ambiguous
 constexpr float kFloorChi2 = 9.f;      // the floor must not cost more than 3 sigma (1 dof: height)
 constexpr int kStereoFramesForOneStart = 3;  // a flight fit from the current state suffices
+constexpr int kRestitutionMemory = 8;        // rebounds averaged into b
 // The rays' measured noise level: the rows of the last ~128 frames (4 s at 30 Hz), starting from
 // the configured prior as if 2 rows had shown it (forgotten like the rest; 8 held the level near
 // the model's for 2-3 s). A fit's variance factor is pulled towards it by 8 rows.
@@ -162,6 +163,8 @@ void BallFilter::Configure(const BallFilterConfig& config) {
   cfg_.max_window = std::clamp(cfg_.max_window, 4, kMaxWindow);
   noise_dof_ = kNoiseStartRows;
   noise_chi2_ = kNoiseStartRows * NoisePrior();
+  b_ = std::clamp(cfg_.bounce_factor, 0.f, 1.f);
+  b_samples_ = 0;
   Reset();
 }
 
@@ -175,8 +178,7 @@ void BallFilter::Reset() {
   off_count_ = 0;
   seg_ = Segment{};
   fit_ = Fit{};
-  b_ = std::clamp(cfg_.bounce_factor, 0.f, 1.f);
-  b_samples_ = 0;
+  // b is the ball's and the floor's, not the track's: like the rays' noise level it outlives it.
   b_pending_ = false;
 }
 
@@ -894,8 +896,9 @@ void BallFilter::EstimateRestitution(int seg_frames) {
   const float vz_out = fit_.x(5) + cfg_.gravity_mps2 * since;
   const float b_est = vz_out / seg_.v_in_z;
   if (b_est > cfg_.min_bounce_factor && b_est < cfg_.max_bounce_factor) {
-    // The first observed rebound replaces the configured value; later ones are averaged in.
-    const float n = static_cast<float>(b_samples_);
+    // The first observed rebound replaces the configured value; later ones are averaged in, the
+    // last kRestitutionMemory of them (a new ball or a softer one is followed within a match).
+    const float n = static_cast<float>(std::min(b_samples_, kRestitutionMemory - 1));
     b_ = (b_ * n + b_est) / (n + 1.f);
     ++b_samples_;
     // The spin the rebound carries to the next contact, from its fitted horizontal take-off
