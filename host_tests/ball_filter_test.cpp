@@ -420,7 +420,8 @@ TEST(BallFilter, AContactOnAFrameTimeGivesTheRightRestitution) {
 
 // The restitution is the ball's and the floor's: learned on one track, it predicts the next
 // ball's bounces before that ball has bounced (the 2.5 s look-ahead from a drop's first frames),
-// after the track was lost or reset. A reconfiguration is a new venue: back to the configured value.
+// after the track was lost or reset. A reconfiguration is a new venue: back to the configured
+// value.
 TEST(BallFilter, TheLearnedRestitutionPredictsTheNextTracksBounces) {
   const float b_true = 0.82f;
   auto drop = [&](const Eigen::Vector3f& p0, int n, std::vector<Eigen::Vector3f>& truth) {
