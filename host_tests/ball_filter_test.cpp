@@ -565,6 +565,55 @@ TEST(BallFilter, UncertaintyCoversTheTrueErrorAbout68Percent) {
   EXPECT_LT(frac, 0.9f);
 }
 
+// The look-ahead's own sigma (psigma, 200 ms ahead): the fit and its model carried forward, with
+// rays at their stated noise. The unmodelled acceleration that grows a coasting state's sigma
+// (a kick unseen: 1.5 m/s^2 * sqrt(0.2^3 / 3) = 7.7 cm an axis at 200 ms) is not in it until the
+// rays stop.
+TEST(BallFilter, TheLookAheadsSigmaCoversItsErrorAndGrowsOnlyWhenUnseen) {
+  constexpr int kAhead = 6;  // frames: 200 ms
+  int inside[3] = {}, total = 0;
+  for (int run = 0; run < 2; ++run) {
+    Sim ball = run == 0 ? Sim{Eigen::Vector3f(-2.f, 4.f, kR), Eigen::Vector3f(1.5f, -0.5f, 0.f)}
+                        : Sim{Eigen::Vector3f(1.f, 5.f, kR), Eigen::Vector3f(-1.f, -3.f, 4.f)};
+    std::vector<Eigen::Vector3f> truth;
+    for (int k = 0; k < 25 + kAhead; ++k, ball.Step(1.f / 30.f)) truth.push_back(ball.p);
+    BallFilter f(Config());
+    BallState s;
+    for (int k = 0; k < 25; ++k) {
+      f.Update(Observe(truth[k], FrameUs(k), kBoth, 100 * run + k, 2.f));
+      f.FillState(FrameUs(k), static_cast<uint32_t>(FrameUs(k + kAhead) - FrameUs(k)), s);
+      ASSERT_TRUE(s.flags & kFlagHasPrediction);
+      if (k < 5) continue;
+      const Eigen::Vector3f e = Eigen::Vector3f(s.px_m, s.py_m, s.pz_m) - truth[k + kAhead];
+      const float sig[3] = {s.psigma_x_m, s.psigma_y_m, s.psigma_z_m};
+      for (int j = 0; j < 3; ++j) {
+        if (run == 0 && j == 2) continue;  // z is a constraint when rolling
+        for (int m = 0; m < 3; ++m) inside[m] += std::fabs(e(j)) <= (m + 1) * sig[j];
+        ++total;
+      }
+      Eigen::Vector3f with_kicks;
+      ASSERT_TRUE(f.SigmaAt(FrameUs(k + kAhead), with_kicks));
+      const float tau = 1e-6f * static_cast<float>(FrameUs(k + kAhead) - FrameUs(k));
+      const float a = Config().accel_noise_mps2;
+      for (int j = 0; j < 3; ++j) {
+        EXPECT_NEAR(with_kicks(j) * with_kicks(j) - sig[j] * sig[j], a * a * tau * tau * tau / 3.f,
+                    2e-5f)
+            << "frame " << k << " axis " << j;
+      }
+    }
+    // Unseen for 0.3 s: the time without rays counts, as in the state's own sigma.
+    Eigen::Vector3f now, ahead;
+    ASSERT_TRUE(f.SigmaAt(FrameUs(33), now));
+    ASSERT_TRUE(f.PredictionSigma(FrameUs(33), FrameUs(33 + kAhead), ahead));
+    EXPECT_GT(ahead.head<2>().norm(), now.head<2>().norm());
+  }
+  printf("look-ahead within 1 / 2 / 3 psigma: %d / %d / %d of %d axes\n", inside[0], inside[1],
+         inside[2], total);
+  EXPECT_GT(inside[0], total / 2);
+  EXPECT_LT(inside[0], total * 95 / 100);
+  EXPECT_GE(inside[2], total * 95 / 100);
+}
+
 // The configured ray noise is wider than the detections' (1.5-2x on renders, for robustness):
 // the reported sigma follows the residuals down, where the model's own covered every error
 // (1.0 here). The 8 rows of prior at the model's noise keep the first frames wider (0.89).

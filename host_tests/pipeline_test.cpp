@@ -578,19 +578,35 @@ TEST(PipelineCli, RunWritesTheDesignColumns) {
   ASSERT_EQ(cli::CmdRun(10, const_cast<char**>(argv)), 0);
   cli::TruthCsv t;
   ASSERT_TRUE(t.Load(out, {}, err)) << err;
-  const std::vector<std::string> want = {"index",   "t_us",
-                                         "found",   "x",
-                                         "y",       "z",
-                                         "vx",      "vy",
-                                         "vz",      "mode",
-                                         "omni_u",  "omni_v",
-                                         "persp_u", "persp_v",
-                                         "ray_gap", "t_bounce_us",
-                                         "proc_us", "px",
-                                         "py",      "pz",
-                                         "sigma_x", "sigma_y",
-                                         "sigma_z", "pose_x",
-                                         "pose_y",  "pose_heading_deg"};
+  const std::vector<std::string> want = {"index",
+                                         "t_us",
+                                         "found",
+                                         "x",
+                                         "y",
+                                         "z",
+                                         "vx",
+                                         "vy",
+                                         "vz",
+                                         "mode",
+                                         "omni_u",
+                                         "omni_v",
+                                         "persp_u",
+                                         "persp_v",
+                                         "ray_gap",
+                                         "t_bounce_us",
+                                         "proc_us",
+                                         "px",
+                                         "py",
+                                         "pz",
+                                         "sigma_x",
+                                         "sigma_y",
+                                         "sigma_z",
+                                         "psigma_x",
+                                         "psigma_y",
+                                         "psigma_z",
+                                         "pose_x",
+                                         "pose_y",
+                                         "pose_heading_deg"};
   EXPECT_EQ(t.header(), want);
   ASSERT_EQ(t.rows(), 8u);
   EXPECT_EQ(t.Text(0, "index"), "10");

@@ -106,7 +106,10 @@ TEST(Cobs, RoundTripAllLengthsAndZeroPatterns) {
 }
 
 TEST(Protocol, BallStateRoundTripIsBitExact) {
-  const BallState s = SampleState(123456789);
+  BallState s = SampleState(123456789);
+  s.flags |= kFlagHasPrediction;
+  s.sigma_x_m = 0.0125f, s.sigma_y_m = 0.0351f, s.sigma_z_m = 0.f;
+  s.psigma_x_m = 0.25f, s.psigma_y_m = 70.f, s.psigma_z_m = 0.0004f;
   auto wire = Encode(s, 7);
   EXPECT_EQ(wire.back(), 0);
   Decoder d;
@@ -125,6 +128,13 @@ TEST(Protocol, BallStateRoundTripIsBitExact) {
   EXPECT_EQ(r.flags, s.flags);
   EXPECT_EQ(r.omni.u_px, s.omni.u_px);
   EXPECT_EQ(r.proc_us, s.proc_us);
+  // Sigmas travel in whole millimetres, rounded up, 65.535 m when larger.
+  EXPECT_FLOAT_EQ(r.sigma_x_m, 0.013f);
+  EXPECT_FLOAT_EQ(r.sigma_y_m, 0.036f);
+  EXPECT_FLOAT_EQ(r.sigma_z_m, 0.f);
+  EXPECT_FLOAT_EQ(r.psigma_x_m, 0.25f);
+  EXPECT_FLOAT_EQ(r.psigma_y_m, 65.535f);
+  EXPECT_FLOAT_EQ(r.psigma_z_m, 0.001f);
 }
 
 TEST(Protocol, StatusRoundTrip) {
@@ -427,13 +437,13 @@ TEST(Protocol, LinkBudgetFitsAt60Hz) {
       WireFrameBytes(kLinePointsHeaderBytes + kMaxLinePointsPerPacket * kLinePointBytes);
   const size_t goals = WireFrameBytes(kGoalsHeaderBytes + kMaxGoalsPerPacket * kGoalBytes);
   EXPECT_EQ(goals, 50u);
-  EXPECT_EQ(ball, 114u);
+  EXPECT_EQ(ball, 120u);
   EXPECT_EQ(status, 120u);
   EXPECT_EQ(pose, 58u);
   EXPECT_EQ(obstacles, 122u);
   EXPECT_EQ(lines, 285u);
   const size_t per_pair = ball + status + pose + obstacles + goals + lines;
-  EXPECT_EQ(per_pair, 749u);
+  EXPECT_EQ(per_pair, 755u);
   const size_t bytes_per_s = 921600 / 10;          // 8N1: 10 bits a byte
   EXPECT_LT(per_pair * 60, bytes_per_s * 6 / 10);  // < 60 % of the link at 60 Hz
 }
@@ -524,8 +534,12 @@ namespace {
 TEST(Protocol, GoldenStreamMatchesCommittedFixture) {
   std::vector<uint8_t> stream(2 * kMaxWireFrameBytes);
   BallState s = SampleState(1000000);
-  s.flags |= kFlagHasBounce;
+  s.flags |= kFlagHasBounce | kFlagHasPrediction;
   s.t_bounce_us = 1250000;
+  s.predict_ahead_us = 200000;
+  s.px_m = 0.0625f, s.py_m = 3.625f, s.pz_m = 0.11f;
+  s.sigma_x_m = 0.0125f, s.sigma_y_m = 0.0355f, s.sigma_z_m = 0.0015f;  // 13, 36, 2 mm
+  s.psigma_x_m = 0.0405f, s.psigma_y_m = 0.0905f, s.psigma_z_m = 0.0205f;
   auto a = EncodeBallState(s, 41, stream);
   ASSERT_TRUE(a.ok());
   StatusReport st;

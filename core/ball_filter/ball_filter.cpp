@@ -1094,15 +1094,31 @@ float BallFilter::noise_level() const {
 }
 
 bool BallFilter::SigmaAt(uint64_t t_us, Eigen::Vector3f& sigma_m, bool reported) const {
+  return Sigma(t_us, t_us, sigma_m, reported);
+}
+
+bool BallFilter::PredictionSigma(uint64_t now_us, uint64_t t_us, Eigen::Vector3f& sigma_m) const {
+  return Sigma(t_us, std::min(now_us, t_us), sigma_m, true);
+}
+
+// The fit's covariance moved to t_us; an unmodelled acceleration (a kick unseen) over the time
+// without rays up to `unseen_until_us`; reported: plus the shared errors and the motion model's
+// misfit, an acceleration a it lacks, which a fit over a window of span T extrapolates tau ahead
+// off by a (T^2 / 12 + T tau / 2 + tau^2 / 2).
+bool BallFilter::Sigma(uint64_t t_us, uint64_t unseen_until_us, Eigen::Vector3f& sigma_m,
+                       bool reported) const {
   if (!tracking_ || !fit_.ok) return false;
   const float tau = Seconds(t_us, t_ref_us_);
+  const float unseen = std::max(Seconds(unseen_until_us, t_ref_us_), 0.f);
   const float q = cfg_.accel_noise_mps2 * cfg_.accel_noise_mps2;
   const float k = reported ? fit_.quiet_scale : 1.f;
-  const float model = cfg_.model_accel_mps2 * fit_.span_s * fit_.span_s / 12.f;
+  const float span = fit_.span_s, ahead = std::max(tau, 0.f);
+  const float model =
+      cfg_.model_accel_mps2 * (span * span / 12.f + 0.5f * span * ahead + 0.5f * ahead * ahead);
   for (int j = 0; j < 3; ++j) {
     float var =
         k * (fit_.cov(j, j) + 2.f * tau * fit_.cov(j, 3 + j) + tau * tau * fit_.cov(3 + j, 3 + j)) +
-        q * std::fabs(tau * tau * tau) / 3.f;
+        q * unseen * unseen * unseen / 3.f;
     if (reported) {
       var += (fit_.bias.row(j) + tau * fit_.bias.row(3 + j)).squaredNorm();
       if (!seg_.at_rest && (j < 2 || seg_.motion == Motion::kAir)) var += model * model;
@@ -1177,9 +1193,11 @@ void BallFilter::FillState(uint64_t t_us, uint32_t ahead_us, BallState& out) con
   out.py_m = p.y();
   out.pz_m = p.z();
   out.flags |= kFlagHasPrediction;
-  if (SigmaAt(t_us + ahead_us, s) && !(s.norm() <= cfg_.unobservable_sigma_m)) {
-    out.flags |= kFlagPredictionUncertain;
-  }
+  PredictionSigma(t_us, t_us + ahead_us, s);
+  out.psigma_x_m = s.x();
+  out.psigma_y_m = s.y();
+  out.psigma_z_m = s.z();
+  if (!(s.norm() <= cfg_.unobservable_sigma_m)) out.flags |= kFlagPredictionUncertain;
 }
 
 }  // namespace bv

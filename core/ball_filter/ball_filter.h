@@ -99,6 +99,10 @@ class BallFilter {
   /// state reports it, the fit's covariance scaled down when its residuals are smaller than the
   /// ray noise model says (calibrated on renders); false: the model's own (gating).
   bool SigmaAt(uint64_t t_us, Eigen::Vector3f& sigma_m, bool reported = true) const;
+  /// 1-sigma of the position predicted at t_us from now_us: the fit and its model carried ahead;
+  /// an unmodelled acceleration (SigmaAt's growth) only over the time already without rays. What
+  /// someone may do to the ball in the horizon is not in it.
+  bool PredictionSigma(uint64_t now_us, uint64_t t_us, Eigen::Vector3f& sigma_m) const;
   /// Predicted floor contacts strictly after t_us (time, x, y), in order; returns the count.
   int ContactsAfter(uint64_t t_us, uint64_t* t_out, float* x_out, float* y_out, int max) const;
   /// Fills position, velocity, sigma, mode, found, coasting/lost flags, next bounce and the
@@ -117,6 +121,8 @@ class BallFilter {
 
  private:
   float NoisePrior() const;  // ray_noise_prior, clamped to what noise_level() can be
+  bool Sigma(uint64_t t_us, uint64_t unseen_until_us, Eigen::Vector3f& sigma_m,
+             bool reported) const;
   struct StoredRay {
     Eigen::Vector3f dir;
     float sigma_h, sigma_v, range, range_sigma, bias_h, bias_v;

@@ -61,7 +61,8 @@ struct BallState {
   float bounce_x_m = 0, bounce_y_m = 0;
   uint32_t predict_ahead_us = 0;  // horizon of px/py/pz (kFlagHasPrediction)
   float px_m = 0, py_m = 0, pz_m = 0;
-  uint32_t proc_us = 0;  // pipeline time for this pair
+  float psigma_x_m = 0, psigma_y_m = 0, psigma_z_m = 0;  // 1-sigma of px/py/pz
+  uint32_t proc_us = 0;                                  // pipeline time for this pair
 };
 
 }  // namespace bv

@@ -13,7 +13,8 @@ namespace {
 constexpr char kSchema[] =
     "ball:t_us u64,flags u16,mode u8,found u8,x y z f32,vx vy vz f32,ray_gap f32,"
     "omni_u omni_v f32,persp_u persp_v f32,t_bounce_us u64,bounce_x bounce_y f32,"
-    "predict_ahead_us u32,px py pz f32,proc_us u32,sigma_x sigma_y sigma_z u16;"
+    "predict_ahead_us u32,px py pz f32,proc_us u32,sigma_x sigma_y sigma_z u16,"
+    "psigma_x psigma_y psigma_z u16;"
     "status:uptime_us u64,frames_processed frame_rate_mhz frames_dropped deadline_overruns "
     "packets_dropped pairs_omni_missing pairs_persp_missing pairs_out_of_sync pairs_out_of_order "
     "pairs_torn calibration_id lut_id u32,calibration_state lut_state u8,reserved u16,"
@@ -123,7 +124,9 @@ Result<size_t> EncodeFrame(MsgType type, uint32_t seq, std::span<const uint8_t> 
 
 uint16_t BallSigmaMm(float sigma_m) {
   if (!(sigma_m >= 0.f)) return sigma_m < 0.f ? 0 : 65535;
-  const float mm = std::ceil(sigma_m * 1000.f);
+  // Rounded up, but a value that already is whole mm (a decoded one) stays: 0.036f * 1000 is
+  // 36.000002 in float.
+  const float mm = std::ceil(sigma_m * 1000.f - 1e-3f);
   return mm >= 65535.f ? 65535 : static_cast<uint16_t>(mm);
 }
 
@@ -145,6 +148,7 @@ Result<size_t> EncodeBallState(const BallState& s, uint32_t seq, std::span<uint8
   w.F32(s.px_m), w.F32(s.py_m), w.F32(s.pz_m);
   w.U32(s.proc_us);
   for (const float sigma : {s.sigma_x_m, s.sigma_y_m, s.sigma_z_m}) w.U16(BallSigmaMm(sigma));
+  for (const float sigma : {s.psigma_x_m, s.psigma_y_m, s.psigma_z_m}) w.U16(BallSigmaMm(sigma));
   static_assert(sizeof(p) == kBallStatePayloadBytes);
   if (w.size() != kBallStatePayloadBytes) return Status(StatusCode::kInternal, "ball payload size");
   return EncodeFrame(MsgType::kBallState, seq, w.written(), out);
@@ -171,6 +175,7 @@ Status ParseBallState(std::span<const uint8_t> payload, BallState& out) {
   s.px_m = r.F32(), s.py_m = r.F32(), s.pz_m = r.F32();
   s.proc_us = r.U32();
   s.sigma_x_m = r.U16() * 1e-3f, s.sigma_y_m = r.U16() * 1e-3f, s.sigma_z_m = r.U16() * 1e-3f;
+  s.psigma_x_m = r.U16() * 1e-3f, s.psigma_y_m = r.U16() * 1e-3f, s.psigma_z_m = r.U16() * 1e-3f;
   if (mode > static_cast<uint8_t>(BallMode::kBouncing)) {
     return Status(StatusCode::kInvalidArgument, "ball state: unknown mode");
   }

@@ -15,7 +15,7 @@
 
 namespace bv::protocol {
 
-inline constexpr uint8_t kVersion = 2;  // 2: the ball state carries its position sigma
+inline constexpr uint8_t kVersion = 3;  // 2: the ball state's sigma; 3: its prediction's
 inline constexpr size_t kHeaderBytes = 10;
 inline constexpr size_t kCrcBytes = 4;
 inline constexpr size_t kMaxPayloadBytes = 1024;
@@ -61,7 +61,7 @@ enum class MsgType : uint8_t {
 /// listener built from another revision refuses the stream instead of misreading it.
 uint16_t SchemaHash();
 
-inline constexpr size_t kBallStatePayloadBytes = 98;
+inline constexpr size_t kBallStatePayloadBytes = 104;
 inline constexpr size_t kStatusPayloadBytes = 104;
 inline constexpr size_t kPosePayloadBytes = 42;
 // Line points per packet: the 35-51 a frame typically has fit whole; beyond, an evenly spread

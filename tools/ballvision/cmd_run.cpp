@@ -745,6 +745,7 @@ void PrintPredictionErrors(int predict_ms, const std::vector<FrameRecord>& recs,
                            const std::vector<double>& bounces) {
   const uint64_t ahead_us = static_cast<uint64_t>(predict_ms) * 1000u;
   std::vector<double> e_all, e_nobounce, e_uncertain;
+  std::vector<double> in_sigmas;  // |error| / the prediction's own sigma, per axis
   std::printf("\nPosition predicted %d ms ahead vs truth (frames with the ball in flight)\n",
               predict_ms);
   std::printf("%8s %-9s %-5s | %8s %8s %8s | %8s\n", "t_s", "mode", "kind", "pred_x", "pred_y",
@@ -762,6 +763,9 @@ void PrintPredictionErrors(int predict_ms, const std::vector<FrameRecord>& recs,
       crosses |= b > r.state.t_us * 1e-6 && b <= (r.state.t_us + ahead_us) * 1e-6;
     }
     if (!crosses) e_nobounce.push_back(e);
+    const double err[3] = {p.x() - t1->x, p.y() - t1->y, p.z() - t1->z};
+    const double sig[3] = {r.state.psigma_x_m, r.state.psigma_y_m, r.state.psigma_z_m};
+    for (int j = 0; j < 3; ++j) in_sigmas.push_back(sig[j] > 0 ? std::fabs(err[j]) / sig[j] : 1e9);
     const bool uncertain = (r.state.flags & kFlagPredictionUncertain) != 0;
     if (uncertain) e_uncertain.push_back(e);
     std::printf("%8.3f %-9s %-5s | %8.3f %8.3f %8.3f | %8.2f%s%s\n", r.state.t_us * 1e-6,
@@ -778,6 +782,19 @@ void PrintPredictionErrors(int predict_ms, const std::vector<FrameRecord>& recs,
         "  without a bounce in the horizon: median %.2f cm, p90 %.2f cm, max %.2f cm (n=%zu)\n",
         Median(e_nobounce) * 100, Percentile(e_nobounce, 0.9) * 100,
         Percentile(e_nobounce, 1.0) * 100, e_nobounce.size());
+  }
+  if (!in_sigmas.empty()) {
+    auto within = [&](double k) {
+      return 100.0 *
+             std::count_if(in_sigmas.begin(), in_sigmas.end(), [k](double x) { return x <= k; }) /
+             static_cast<double>(in_sigmas.size());
+    };
+    std::printf(
+        "  its own sigma (psigma): error within 1 / 2 / 3 sigma on %.1f / %.1f / %.1f %% of axes "
+        "(68 / 95 / 99.7 when calibrated), |error| / sigma at the 68th / 95th / 99.7th %.2f / "
+        "%.2f / %.2f\n",
+        within(1), within(2), within(3), Percentile(in_sigmas, 0.68), Percentile(in_sigmas, 0.95),
+        Percentile(in_sigmas, 0.997));
   }
   // Counted above too: the flag tells the robot, it does not hide the frame here.
   if (!e_uncertain.empty()) {

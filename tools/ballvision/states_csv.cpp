@@ -1,6 +1,7 @@
 #include "tools/ballvision/states_csv.h"
 
 #include <cstdio>
+#include <initializer_list>
 
 #include "core/protocol/protocol.h"
 
@@ -26,7 +27,9 @@ std::string StatesCsvHeader(bool predict) {
       "index,t_us,found,x,y,z,vx,vy,vz,mode,omni_u,omni_v,persp_u,persp_v,ray_gap,t_bounce_us,"
       "proc_us";
   if (predict) h += ",px,py,pz";
-  return h + ",sigma_x,sigma_y,sigma_z\n";
+  h += ",sigma_x,sigma_y,sigma_z";
+  if (predict) h += ",psigma_x,psigma_y,psigma_z";
+  return h + "\n";
 }
 
 std::string StatesCsvRow(int64_t index, const BallState& s, bool predict, bool with_proc) {
@@ -57,10 +60,16 @@ std::string StatesCsvRow(int64_t index, const BallState& s, bool predict, bool w
     }
   }
   // As the ball-state packet carries them (mm), so run and listen write the same.
-  for (float v : {s.sigma_x_m, s.sigma_y_m, s.sigma_z_m}) {
-    r += ",";
-    const int mm = protocol::BallSigmaMm(v);
-    if (s.found) r += std::to_string(mm / 1000) + "." + Pad3(mm % 1000);
+  auto sigmas = [&r](std::initializer_list<float> values, bool valid) {
+    for (float v : values) {
+      r += ",";
+      const int mm = protocol::BallSigmaMm(v);
+      if (valid) r += std::to_string(mm / 1000) + "." + Pad3(mm % 1000);
+    }
+  };
+  sigmas({s.sigma_x_m, s.sigma_y_m, s.sigma_z_m}, s.found);
+  if (predict) {
+    sigmas({s.psigma_x_m, s.psigma_y_m, s.psigma_z_m}, (s.flags & kFlagHasPrediction) != 0);
   }
   return r + "\n";
 }

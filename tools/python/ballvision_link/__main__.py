@@ -21,7 +21,7 @@ from .safe_write import SafeOutput
 
 # Same columns as tools/ballvision/states_csv.cpp (StatesCsvHeader(true)) and cmd_listen.cpp.
 STATES_HEADER = ("index,t_us,found,x,y,z,vx,vy,vz,mode,omni_u,omni_v,persp_u,persp_v,ray_gap,"
-                 "t_bounce_us,proc_us,px,py,pz,sigma_x,sigma_y,sigma_z")
+                 "t_bounce_us,proc_us,px,py,pz,sigma_x,sigma_y,sigma_z,psigma_x,psigma_y,psigma_z")
 STATUS_HEADER = ("seq,uptime_us,frames_processed,frame_rate_hz,frames_dropped,deadline_overruns,"
                  "packets_dropped,pairs_omni_missing,pairs_persp_missing,pairs_out_of_sync,"
                  "pairs_out_of_order,pairs_torn,calibration_id,lut_id,calibration_state,"
@@ -57,6 +57,8 @@ def states_row(m: BallState) -> str:
     # sigma in whole mm as the packet carries it, printed like C++ (m with 3 decimals)
     r += ["%d.%03d" % divmod(round(v * 1000), 1000) if m.found else ""
           for v in (m.sigma_x, m.sigma_y, m.sigma_z)]
+    r += ["%d.%03d" % divmod(round(v * 1000), 1000) if m.flags & FLAG_HAS_PREDICTION else ""
+          for v in (m.psigma_x, m.psigma_y, m.psigma_z)]
     return ",".join(r) + "\n"
 
 

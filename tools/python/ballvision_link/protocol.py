@@ -5,7 +5,7 @@ import zlib
 from dataclasses import dataclass
 from typing import List, Optional, Tuple
 
-VERSION = 2
+VERSION = 3
 MSG_BALL_STATE = 0x01
 MSG_STATUS = 0x02
 MSG_POSE = 0x03
@@ -29,7 +29,8 @@ MAX_WIRE_FRAME = MAX_RAW_FRAME + MAX_RAW_FRAME // 254 + 2
 _SCHEMA = (
     "ball:t_us u64,flags u16,mode u8,found u8,x y z f32,vx vy vz f32,ray_gap f32,"
     "omni_u omni_v f32,persp_u persp_v f32,t_bounce_us u64,bounce_x bounce_y f32,"
-    "predict_ahead_us u32,px py pz f32,proc_us u32,sigma_x sigma_y sigma_z u16;"
+    "predict_ahead_us u32,px py pz f32,proc_us u32,sigma_x sigma_y sigma_z u16,"
+    "psigma_x psigma_y psigma_z u16;"
     "status:uptime_us u64,frames_processed frame_rate_mhz frames_dropped deadline_overruns "
     "packets_dropped pairs_omni_missing pairs_persp_missing pairs_out_of_sync pairs_out_of_order "
     "pairs_torn calibration_id lut_id u32,calibration_state lut_state u8,reserved u16,"
@@ -55,12 +56,12 @@ MODES = ("none", "rolling", "flying", "bouncing")
 FLAG_SEEN_OMNI, FLAG_SEEN_PERSP, FLAG_HAS_BOUNCE, FLAG_HAS_PREDICTION = 1, 2, 1 << 11, 1 << 12
 FLAG_UNOBSERVABLE, FLAG_PREDICTION_UNCERTAIN = 1 << 13, 1 << 14
 
-_BALL = struct.Struct("<QHBB3f3ff2f2fQ2fI3fI3H")
+_BALL = struct.Struct("<QHBB3f3ff2f2fQ2fI3fI3H3H")
 _STATUS = struct.Struct("<Q12IBBH11I")
 _POSE = struct.Struct("<QBBHH7f")
 _LINES_HEAD = struct.Struct("<QHBB")
 _OBSTACLES_HEAD = struct.Struct("<QBB")
-assert _BALL.size == 98 and _STATUS.size == 104 and _POSE.size == 42
+assert _BALL.size == 104 and _STATUS.size == 104 and _POSE.size == 42
 _SYNC_REPLY = struct.Struct("<IQQQ")
 _CAPTURE_FRAME = struct.Struct("<HHHBBHHQQQIII")
 _CAPTURE_CHUNK_HEAD = struct.Struct("<HHBBI")
@@ -112,6 +113,9 @@ class BallState:
     sigma_x: float  # position 1-sigma per axis, m (mm resolution; 65.535 = unknown)
     sigma_y: float
     sigma_z: float
+    psigma_x: float  # 1-sigma of px, py, pz, m (as sigma_x)
+    psigma_y: float
+    psigma_z: float
 
 
 @dataclass
@@ -298,7 +302,7 @@ def parse_ball_state(seq: int, payload: bytes) -> Optional[BallState]:
         return None
     v = _BALL.unpack(payload)
     (t_us, flags, mode, found, x, y, z, vx, vy, vz, gap, ou, ov, pu, pv, tb, bx, by, ahead,
-     px, py, pz, proc, sx, sy, sz) = v
+     px, py, pz, proc, sx, sy, sz, psx, psy, psz) = v
     if mode >= len(MODES) or found > 1:
         return None
     if found and not all(math.isfinite(a) for a in (x, y, z, vx, vy, vz)):
@@ -308,7 +312,8 @@ def parse_ball_state(seq: int, payload: bytes) -> Optional[BallState]:
                      ou if seen_o else None, ov if seen_o else None,
                      pu if seen_p else None, pv if seen_p else None,
                      tb if flags & FLAG_HAS_BOUNCE else None, bx, by, ahead, px, py, pz, proc,
-                     sx / 1000.0, sy / 1000.0, sz / 1000.0)
+                     sx / 1000.0, sy / 1000.0, sz / 1000.0, psx / 1000.0, psy / 1000.0,
+                     psz / 1000.0)
 
 
 def parse_status(seq: int, payload: bytes) -> Optional[StatusReport]:

@@ -11,16 +11,16 @@ import sys
 import zlib
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
-from ballvision_link.protocol import HEADER, SCHEMA_HASH, cobs_encode  # noqa: E402
+from ballvision_link.protocol import HEADER, SCHEMA_HASH, VERSION, cobs_encode  # noqa: E402
 
 OUT = os.path.join(os.path.dirname(__file__), "..", "..", "..", "host_tests", "data",
                    "protocol_conformance.json")
 BALL, STATUS = 0x01, 0x02
-BALL_FMT = struct.Struct("<QHBB3f3ff2f2fQ2fI3fI3H")
+BALL_FMT = struct.Struct("<QHBB3f3ff2f2fQ2fI3fI3H3H")
 STATUS_FMT = struct.Struct("<Q12IBBH11I")
 
 
-def raw(mtype, seq, payload, version=2, schema=SCHEMA_HASH, length=None, crc_xor=0):
+def raw(mtype, seq, payload, version=VERSION, schema=SCHEMA_HASH, length=None, crc_xor=0):
     body = HEADER.pack(version, mtype, schema, seq, len(payload) if length is None else length)
     body += payload
     return body + struct.pack("<I", (zlib.crc32(body) ^ crc_xor) & 0xFFFFFFFF)
@@ -32,7 +32,7 @@ def wire(r):
 
 def ball(t_us=1000000, flags=3, mode=1, found=1, x=0.25):
     return BALL_FMT.pack(t_us, flags, mode, found, x, 3.5, 0.11, -1, 0.5, 0, 0.004, 100.5,
-                         200.25, 300, 240, 0, 0, 0, 0, 0, 0, 0, 1234, 12, 15, 40)
+                         200.25, 300, 240, 0, 0, 0, 0, 0, 0, 0, 1234, 12, 15, 40, 0, 0, 0)
 
 
 def status(cal_state=0, lut_state=0):
