@@ -614,6 +614,43 @@ TEST(BallFilter, TheLookAheadsSigmaCoversItsErrorAndGrowsOnlyWhenUnseen) {
   EXPECT_GE(inside[2], total * 95 / 100);
 }
 
+// A look-ahead across a floor contact carries the rebound's uncertainty: before any rebound was
+// fitted, b is the configured 0.7 +- 0.08. A ball with b 0.85 (steel-like): every look-ahead that
+// crosses its first contact is within 3 psigma, though the prior's b puts it up to 0.15 |vz| t off.
+TEST(BallFilter, ALookAheadAcrossAContactCarriesTheReboundsUncertainty) {
+  constexpr int kAhead = 6;
+  Sim ball{Eigen::Vector3f(0.3f, 2.f, 1.2f), Eigen::Vector3f::Zero()};
+  ball.b = 0.85f;
+  std::vector<Eigen::Vector3f> truth;
+  for (int k = 0; k < 30; ++k, ball.Step(1.f / 30.f)) truth.push_back(ball.p);
+  const double t_contact = ball.contacts_s.at(0);
+  BallFilter f(Config());
+  BallState s;
+  int crossing = 0;
+  float worst = 0;
+  for (int k = 0; k + kAhead < 30; ++k) {
+    f.Update(Observe(truth[k], FrameUs(k), kBoth, k, 0.5f));
+    const uint64_t ahead_us = FrameUs(k + kAhead) - FrameUs(k);
+    f.FillState(FrameUs(k), static_cast<uint32_t>(ahead_us), s);
+    const double t_s = k / 30.0;
+    if (k < 6 || t_s >= t_contact || t_s + 0.2 < t_contact) continue;
+    ++crossing;
+    // The rebound's share: sigma_b |vz in| times the time after the contact.
+    uint64_t tc;
+    float cx, cy;
+    ASSERT_EQ(f.ContactsAfter(FrameUs(k), &tc, &cx, &cy, 1), 1);
+    Eigen::Vector3f p_in, v_in;
+    BallMode mode;
+    ASSERT_TRUE(f.StateAt(tc - 1, p_in, v_in, mode));
+    const float after = 1e-6f * static_cast<float>(FrameUs(k + kAhead) - tc);
+    EXPECT_GE(s.psigma_z_m, Config().bounce_factor_sigma * std::fabs(v_in.z()) * after) << k;
+    const float e = std::fabs(s.pz_m - truth[k + kAhead].z());
+    worst = std::max(worst, e / s.psigma_z_m);
+  }
+  EXPECT_GE(crossing, 5);
+  EXPECT_LT(worst, 3.f);
+}
+
 // The configured ray noise is wider than the detections' (1.5-2x on renders, for robustness):
 // the reported sigma follows the residuals down, where the model's own covered every error
 // (1.0 here). The 8 rows of prior at the model's noise keep the first frames wider (0.89).

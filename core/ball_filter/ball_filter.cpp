@@ -1115,6 +1115,24 @@ bool BallFilter::Sigma(uint64_t t_us, uint64_t unseen_until_us, Eigen::Vector3f&
   const float span = fit_.span_s, ahead = std::max(tau, 0.f);
   const float model =
       cfg_.model_accel_mps2 * (span * span / 12.f + 0.5f * span * ahead + 0.5f * ahead * ahead);
+  // A contact within the horizon: its rebound's velocity error for the time after it (the first
+  // contact only; the horizons the packet carries hold one).
+  Eigen::Vector3f rebound = Eigen::Vector3f::Zero();
+  if (reported && ahead > 0.f) {
+    Eigen::Vector3f p, v;
+    BallMode mode;
+    uint64_t tc;
+    float cx, cy;
+    int n = 0;
+    Evolve(ahead, p, v, mode, &tc, &cx, &cy, 1, n);
+    if (n > 0 && tc > t_ref_us_ && StateAt(tc - 1, p, v, mode)) {
+      const float after = Seconds(t_us, tc);
+      const float sb = b_samples_ > 0 ? cfg_.fitted_bounce_factor_sigma : cfg_.bounce_factor_sigma;
+      const float sh = seg_.spin_known ? cfg_.rebound_h_sigma_spin_known : cfg_.rebound_h_sigma;
+      rebound.head<2>().setConstant(sh * std::hypot(v.x(), v.y()) * after);
+      rebound.z() = sb * std::fabs(v.z()) * after;
+    }
+  }
   for (int j = 0; j < 3; ++j) {
     float var =
         k * (fit_.cov(j, j) + 2.f * tau * fit_.cov(j, 3 + j) + tau * tau * fit_.cov(3 + j, 3 + j)) +
@@ -1122,6 +1140,7 @@ bool BallFilter::Sigma(uint64_t t_us, uint64_t unseen_until_us, Eigen::Vector3f&
     if (reported) {
       var += (fit_.bias.row(j) + tau * fit_.bias.row(3 + j)).squaredNorm();
       if (!seg_.at_rest && (j < 2 || seg_.motion == Motion::kAir)) var += model * model;
+      var += rebound(j) * rebound(j);
     }
     sigma_m(j) = std::sqrt(std::max(var, 0.f));
   }

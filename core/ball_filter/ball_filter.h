@@ -44,6 +44,13 @@ struct BallFilterConfig {
   // A constant acceleration the model does not have (rolling resistance off its value, spin)
   // moves the end of a window fit of span T by a T^2 / 12: part of the reported sigma.
   float model_accel_mps2 = 0.1f;
+  // A floor contact predicted within the horizon: how well its rebound is known, for the reported
+  // sigma after it. b before any rebound was fitted (turf 0.55-0.65, steel 0.82-0.88 in
+  // ../shared/data/ball_physics: the configured 0.7 +-2 sigma), and after; the horizontal
+  // velocity out as a fraction of the velocity in, with the spin unknown (a kick's first contact:
+  // sliding or gripping changes it by up to 2/5) and known.
+  float bounce_factor_sigma = 0.08f, fitted_bounce_factor_sigma = 0.03f;
+  float rebound_h_sigma = 0.1f, rebound_h_sigma_spin_known = 0.03f;
   // The rays' noise level before any has been measured (a variance factor of their stated noise,
   // see noise_level()): where the first track's first frame starts, as if 2 rows had shown it.
   // The stated noise is 1.5-2x what the rays showed on renders (PipelineConfig), so (1/1.75)^2.
