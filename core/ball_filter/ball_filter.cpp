@@ -1125,7 +1125,7 @@ bool BallFilter::Sigma(uint64_t t_us, uint64_t unseen_until_us, Eigen::Vector3f&
     float cx, cy;
     int n = 0;
     Evolve(ahead, p, v, mode, &tc, &cx, &cy, 1, n);
-    if (n > 0 && tc > t_ref_us_ && StateAt(tc - 1, p, v, mode)) {
+    if (n > 0 && tc >= t_ref_us_ && StateAt(tc - 1, p, v, mode)) {
       const float after = Seconds(t_us, tc);
       const float sb = b_samples_ > 0 ? cfg_.fitted_bounce_factor_sigma : cfg_.bounce_factor_sigma;
       const float sh = seg_.spin_known ? cfg_.rebound_h_sigma_spin_known : cfg_.rebound_h_sigma;
