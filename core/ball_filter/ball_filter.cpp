@@ -1102,14 +1102,14 @@ bool BallFilter::PredictionSigma(uint64_t now_us, uint64_t t_us, Eigen::Vector3f
 }
 
 // The fit's covariance moved to t_us; an unmodelled acceleration (a kick unseen) over the time
-// without rays up to `unseen_until_us`; reported: plus the shared errors and the motion model's
-// misfit, an acceleration a it lacks, which a fit over a window of span T extrapolates tau ahead
-// off by a (T^2 / 12 + T tau / 2 + tau^2 / 2).
+// without rays from the newest frame to `unseen_until_us` (either way); reported: plus the shared
+// errors and the motion model's misfit, an acceleration a it lacks, which a fit over a window of
+// span T extrapolates tau ahead off by a (T^2 / 12 + T tau / 2 + tau^2 / 2).
 bool BallFilter::Sigma(uint64_t t_us, uint64_t unseen_until_us, Eigen::Vector3f& sigma_m,
                        bool reported) const {
   if (!tracking_ || !fit_.ok) return false;
   const float tau = Seconds(t_us, t_ref_us_);
-  const float unseen = std::max(Seconds(unseen_until_us, t_ref_us_), 0.f);
+  const float unseen = std::fabs(Seconds(unseen_until_us, t_ref_us_));
   const float q = cfg_.accel_noise_mps2 * cfg_.accel_noise_mps2;
   const float k = reported ? fit_.quiet_scale : 1.f;
   const float span = fit_.span_s, ahead = std::max(tau, 0.f);
@@ -1125,12 +1125,17 @@ bool BallFilter::Sigma(uint64_t t_us, uint64_t unseen_until_us, Eigen::Vector3f&
     float cx, cy;
     int n = 0;
     Evolve(ahead, p, v, mode, &tc, &cx, &cy, 1, n);
-    if (n > 0 && tc >= t_ref_us_ && StateAt(tc - 1, p, v, mode)) {
+    if (n > 0) {
+      // The first contact ends the current arc: the velocity into it in closed form, as
+      // TryBounce has it.
+      Eigen::Vector3f a, adot;
+      Accel(Motion::kAir, fit_.x.tail<3>(), Seconds(tc, t_ref_us_), a, adot);
+      const Eigen::Vector3f vin = fit_.x.tail<3>() + adot;
       const float after = Seconds(t_us, tc);
       const float sb = b_samples_ > 0 ? cfg_.fitted_bounce_factor_sigma : cfg_.bounce_factor_sigma;
       const float sh = seg_.spin_known ? cfg_.rebound_h_sigma_spin_known : cfg_.rebound_h_sigma;
-      rebound.head<2>().setConstant(sh * std::hypot(v.x(), v.y()) * after);
-      rebound.z() = sb * std::fabs(v.z()) * after;
+      rebound.head<2>().setConstant(sh * std::hypot(vin.x(), vin.y()) * after);
+      rebound.z() = sb * std::fabs(vin.z()) * after;
     }
   }
   for (int j = 0; j < 3; ++j) {

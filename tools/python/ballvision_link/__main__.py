@@ -54,11 +54,11 @@ def states_row(m: BallState) -> str:
     r.append(str(m.t_bounce_us) if m.flags & FLAG_HAS_BOUNCE else "")
     r.append(str(m.proc_us))
     r += [f(v, ok=bool(m.flags & FLAG_HAS_PREDICTION)) for v in (m.px, m.py, m.pz)]
-    # sigma in whole mm as the packet carries it, printed like C++ (m with 3 decimals)
-    r += ["%d.%03d" % divmod(round(v * 1000), 1000) if m.found else ""
-          for v in (m.sigma_x, m.sigma_y, m.sigma_z)]
-    r += ["%d.%03d" % divmod(round(v * 1000), 1000) if m.flags & FLAG_HAS_PREDICTION else ""
-          for v in (m.psigma_x, m.psigma_y, m.psigma_z)]
+    # sigmas in whole mm as the packet carries them, printed like C++ (m with 3 decimals)
+    def mm(values, ok):
+        return ["%d.%03d" % divmod(round(v * 1000), 1000) if ok else "" for v in values]
+    r += mm((m.sigma_x, m.sigma_y, m.sigma_z), m.found)
+    r += mm((m.psigma_x, m.psigma_y, m.psigma_z), bool(m.flags & FLAG_HAS_PREDICTION))
     return ",".join(r) + "\n"
 
 
