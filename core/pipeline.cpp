@@ -182,18 +182,23 @@ void ShadedSideCentre(const OmniCalibration& cal, float radius_px, float lost_px
 // in the omni elevation, which has no calibration term beside it.
 constexpr float kHiddenCentroidPerMissingRadius = 1.5f;
 
+}  // namespace
+
 // How far a region's centroid may be off when its size disagrees with the predicted silhouette.
-// Smaller: the visible part of a partly hidden ball, off by about the missing radius. Larger (past
-// the ~10 % that blur and a prediction's range error give): the ball merged with something
-// ball-coloured beside it (a spare ball, a cone behind it), whose area pulls the centroid by about
-// twice the radius it adds (areas r_b^2 and r_t^2 - r_b^2, centres ~r_b + r_o apart).
-float SizeMisfitPx(const ImagePrediction& pred, float radius_px) {
+// Smaller: the visible part of a partly hidden ball, off by about the missing radius; within
+// `small_rel` (the apparent size's own relative 1-sigma) it is not evidence of that. A region in
+// full view loses part of its rim to partial classification: lobs at 4-6 m measured 2-4 % small
+// in the persp image, and counted as hidden that put 1-2 mrad of shared error on the persp ray,
+// 7 cm of range sigma at 4.5 m where the ball was within 4. Larger (past the ~10 % that blur and a
+// prediction's range error give): the ball merged with something ball-coloured beside it (a
+// spare ball, a cone behind it), whose area pulls the centroid by about twice the radius it adds
+// (areas r_b^2 and r_t^2 - r_b^2, centres ~r_b + r_o apart).
+float SizeMisfitPx(const ImagePrediction& pred, float radius_px, float small_rel) {
   if (!pred.valid) return 0.f;
   const float r = pred.silhouette_radius_px;
-  return std::max(0.f, r - radius_px) + 2.f * std::max(0.f, radius_px - 1.1f * r);
+  return std::max(0.f, (1.f - small_rel) * r - radius_px) +
+         2.f * std::max(0.f, radius_px - 1.1f * r);
 }
-
-}  // namespace
 
 // Angular noise of an omni ray: the centroid noise (grown with the region) converted by the
 // mirror's local scale, radially (elevation, from the neighbouring pixel's ray) and tangentially
@@ -728,7 +733,8 @@ void Pipeline::PerspRayNoiseAndRange(const BallDetection& det, const Ray& ray, b
   // centroid is off towards that part by up to the missing radius.
   // A fitted circle has the whole radius; its centre is as good as the arc it spans.
   const bool circle = det.arc_sectors > 0;
-  const float hidden_px = !circle ? SizeMisfitPx(pred_persp_, det.radius_px) : 0.f;
+  const float hidden_px =
+      !circle ? SizeMisfitPx(pred_persp_, det.radius_px, config_.size_range_rel) : 0.f;
   // The arc a circle misses, like a hidden or cut part, is the same frame after frame: shared.
   const float missing_arc_px = circle ? 0.25f * det.radius_px *
                                             static_cast<float>(kCircleSectors - det.arc_sectors) /
@@ -816,7 +822,7 @@ void Pipeline::BuildObservation(const CameraRays& rays, BallState& out, BallObse
     omni_ray.origin = rays.omni.origin;
     omni_ray.dir = rays.omni.dir;
     omni_ray.camera = 0;
-    const float hidden_px = SizeMisfitPx(pred_omni_, out.omni.radius_px);
+    const float hidden_px = SizeMisfitPx(pred_omni_, out.omni.radius_px, config_.size_range_rel);
     const float cut_px = rays.omni_cut ? 0.5f * out.omni.radius_px : 0.f;
     OmniRaySigma(cal.omni, out.omni, rays.omni, cut_px + hidden_px,
                  cut_px + kHiddenCentroidPerMissingRadius * hidden_px, config_, omni_ray);

@@ -67,8 +67,8 @@ struct PipelineConfig {
   float omni_shade_lost_px = 1.5f, omni_shade_spread_px = 1.0f;
   float omni_range_bias_rel = 0.004f;
   float omni_azimuth_bias_rad = 0.0015f;
-  float size_range_rel = 0.05f;
-  BallFinderConfig finder;  // ball choice and attention (core/detect), both cameras
+  float size_range_rel = 0.05f;  // also how much smaller than predicted a region in view may be
+  BallFinderConfig finder;       // ball choice and attention (core/detect), both cameras
   // Circles fitted to persp outlines that are not clean discs (a ball merged with a red box or
   // cone behind it, partly hidden by a robot). Off for the omni image: the mirror bends the ball.
   bool persp_circles = true;
@@ -132,6 +132,11 @@ OmniScanConfig PipelineOmniScan(const OmniCalibration& cal, const PipelineConfig
 void OmniRaySigma(const OmniCalibration& cal, const BallDetection& det, const Ray& ray,
                   float extra_px, float shared_extra_px, const PipelineConfig& config,
                   BallRay& out);
+
+/// How far a region's centroid may be off, in pixels, when its radius disagrees with the predicted
+/// silhouette's (0 without a prediction): a partly hidden ball's visible part, or the ball merged
+/// with something beside it. A region smaller by less than `small_rel` is a ball in full view.
+float SizeMisfitPx(const ImagePrediction& pred, float radius_px, float small_rel);
 
 class Pipeline {
  public:

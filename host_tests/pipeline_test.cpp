@@ -151,6 +151,22 @@ TEST_F(PipelineTest, AHalfHiddenBallsOffsetIsInTheReportedSigma) {
   EXPECT_LT(s.sigma_x_m, 3.f * std::fabs(err.x()));  // covered, not swamped (46 / 72 mm)
 }
 
+// A region a little smaller than the predicted silhouette is a ball in full view that lost part of
+// its rim (lobs at 4-6 m: 2-4 % in the persp image), not a partly hidden one; past the tolerance
+// the whole missing radius counts, and a larger region past 10 % counts twice what it adds.
+TEST(SizeMisfitTest, ARimLostInFullViewIsNotAHiddenBall) {
+  ImagePrediction pred;
+  pred.valid = true;
+  pred.silhouette_radius_px = 10.f;
+  EXPECT_EQ(SizeMisfitPx(pred, 9.6f, 0.05f), 0.f);
+  EXPECT_EQ(SizeMisfitPx(pred, 10.5f, 0.05f), 0.f);
+  EXPECT_FLOAT_EQ(SizeMisfitPx(pred, 6.f, 0.05f), 3.5f);
+  EXPECT_FLOAT_EQ(SizeMisfitPx(pred, 6.f, 0.f), 4.f);
+  EXPECT_FLOAT_EQ(SizeMisfitPx(pred, 12.f, 0.05f), 2.f);
+  pred.valid = false;
+  EXPECT_EQ(SizeMisfitPx(pred, 6.f, 0.05f), 0.f);
+}
+
 // Renders lose about 1.5 pixels on the ball's shaded lower side at every size, which moves a small
 // omni region's centroid outward (0.12-0.14 px at 4-7 m, radius 4-5 px): a shared elevation error
 // of n / (pi r) pixels, radial only, where it exceeds the base.

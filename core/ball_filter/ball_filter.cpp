@@ -163,6 +163,8 @@ void BallFilter::Configure(const BallFilterConfig& config) {
   cfg_.max_window = std::clamp(cfg_.max_window, 4, kMaxWindow);
   noise_dof_ = kNoiseStartRows;
   noise_chi2_ = kNoiseStartRows * NoisePrior();
+  seg_noise_ = NoiseShare{};
+  for (NoiseShare& n : recent_noise_) n = NoiseShare{};
   b_ = std::clamp(cfg_.bounce_factor, 0.f, 1.f);
   b_samples_ = 0;
   Reset();
@@ -177,6 +179,7 @@ void BallFilter::Reset() {
   cand_valid_ = false;
   off_count_ = 0;
   seg_ = Segment{};
+  seg_noise_ = NoiseShare{};
   fit_ = Fit{};
   // b is the ball's and the floor's, not the track's: like the rays' noise level it outlives it.
   b_pending_ = false;
@@ -443,6 +446,7 @@ void BallFilter::StartTrack(const BallObservation& obs) {
   Eigen::Vector3f p0 = Eigen::Vector3f::Zero();
   PointOf(obs, p0);
   seg_ = Segment{};
+  seg_noise_ = NoiseShare{};
   seg_.start_us = track_start_us_ = obs.t_us;
   seg_.motion = p0.z() - cfg_.ball_radius_m < cfg_.roll_tolerance_m + 0.01f * p0.head<2>().norm()
                     ? Motion::kRolling
@@ -520,6 +524,7 @@ bool BallFilter::SwitchToFlight(float max_speed_mps) {
   if (!Plausible(f) || f.x.tail<3>().norm() > max_speed_mps) return false;
   seg_ = air;
   fit_ = f;
+  RetractSegmentNoise();
   return true;
 }
 
@@ -616,6 +621,7 @@ bool BallFilter::TryBounce(uint64_t t_new_us) {
   const float chi_new = ObsChi2(s, next, xr, t_ref_us_);
   if (!(chi_new < chi_old)) return false;
   seg_ = next;
+  seg_noise_ = NoiseShare{};
   b_pending_ = next.motion == Motion::kAir && next.v_in_z > 1.f;
   // The rebound's state at the new reference time is the nominal for the refit.
   const float tn = Seconds(t_new_us, tc);
@@ -774,7 +780,10 @@ uint16_t BallFilter::Update(const BallObservation& in) {
     // No ball moves like that. A floor fit of one camera's rays of a ball in the air runs away
     // along them: a flight over the same frames may explain them. Otherwise the frames disagree
     // beyond any motion (a wrong detection before): start again from this frame.
-    if (!SwitchToFlight(cfg_.max_speed_mps)) StartTrack(kept);
+    if (!SwitchToFlight(cfg_.max_speed_mps)) {
+      RetractSegmentNoise();
+      StartTrack(kept);
+    }
   }
   return UpdateObservable();
 }
@@ -818,6 +827,7 @@ bool BallFilter::SwitchRollingFlying(int seg_frames) {
     if (fo.chi2 + cfg_.model_switch_chi2 < fit_.chi2 && fo.x(2) > r + cfg_.roll_tolerance_m) {
       seg_ = other;
       fit_ = fo;
+      RetractSegmentNoise();
       return true;
     }
   }
@@ -830,6 +840,7 @@ bool BallFilter::SwitchRollingFlying(int seg_frames) {
     seg_ = other;
     fit_ = fo;
     b_pending_ = false;
+    RetractSegmentNoise();
     return true;
   }
   return false;
@@ -863,6 +874,7 @@ bool BallFilter::RestartSegment(int seg_frames) {
   fit_ = fits[pick];
   b_pending_ = false;
   off_count_ = 0;
+  RetractRecentNoise(n_off);
   return true;
 }
 
@@ -1057,6 +1069,9 @@ bool BallFilter::StateAt(uint64_t t_us, Eigen::Vector3f& p_m, Eigen::Vector3f& v
 // tracks and segments (Configure clears them). A row counts at most 3 sigmas of the level so far:
 // a model change's misfit within the model's wide noise is not the rays' noise.
 void BallFilter::LearnRayNoise() {
+  recent_head_ = (recent_head_ + 1) % kNoiseRecent;
+  NoiseShare& frame = recent_noise_[recent_head_];
+  frame = NoiseShare{};
   if (!tracking_ || !fit_.ok || count_ == 0 || Newest(0).t_us != t_ref_us_) return;
   int seg_frames = 0;
   while (seg_frames < count_ && Newest(seg_frames).t_us >= seg_.start_us) ++seg_frames;
@@ -1068,6 +1083,11 @@ void BallFilter::LearnRayNoise() {
   const float cap = kHuberSigma * kHuberSigma * noise_level();
   noise_chi2_ *= kNoiseForget;
   noise_dof_ *= kNoiseForget;
+  for (NoiseShare* n :
+       {&seg_noise_, &recent_noise_[0], &recent_noise_[1], &recent_noise_[2], &recent_noise_[3]}) {
+    n->chi2 *= kNoiseForget;
+    n->dof *= kNoiseForget;
+  }
   for (int k = 0; k < s.n; ++k) {
     const StoredRay& r = s.rays[k];
     RayRows rr;
@@ -1077,10 +1097,33 @@ void BallFilter::LearnRayNoise() {
       const float free = 1.f - rr.jac[j].dot(c * rr.jac[j]);
       const float z2 = rr.res[j] * rr.res[j];
       if (!std::isfinite(free) || !std::isfinite(z2)) continue;
-      noise_chi2_ += std::min(z2, cap);
-      noise_dof_ += std::clamp(free, 0.f, 1.f);
+      const float add_chi2 = std::min(z2, cap), add_dof = std::clamp(free, 0.f, 1.f);
+      noise_chi2_ += add_chi2;
+      noise_dof_ += add_dof;
+      seg_noise_.chi2 += add_chi2;
+      seg_noise_.dof += add_dof;
+      frame.chi2 += add_chi2;
+      frame.dof += add_dof;
     }
   }
+}
+
+void BallFilter::RetractNoise(NoiseShare& share) {
+  noise_chi2_ = std::max(noise_chi2_ - share.chi2, 0.f);
+  noise_dof_ = std::max(noise_dof_ - share.dof, 0.f);
+  share = NoiseShare{};
+}
+
+void BallFilter::RetractSegmentNoise() {
+  RetractNoise(seg_noise_);
+  for (NoiseShare& n : recent_noise_) n = NoiseShare{};  // all within the segment's
+}
+
+void BallFilter::RetractRecentNoise(int frames) {
+  for (int i = 0; i < std::min(frames, kNoiseRecent); ++i) {
+    RetractNoise(recent_noise_[(recent_head_ - i + kNoiseRecent) % kNoiseRecent]);
+  }
+  seg_noise_ = NoiseShare{};  // a new segment starts
 }
 
 float BallFilter::NoisePrior() const {

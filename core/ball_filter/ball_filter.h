@@ -239,6 +239,19 @@ class BallFilter {
   // The newest frames' whitened squared residuals and their expected share (1 - leverage), with
   // forgetting: noise_level().
   float noise_chi2_ = 0, noise_dof_ = 0;  // Configure() starts both at kNoiseStartRows
+  // What the current segment's frames added to them, and each of the newest kNoiseRecent frames
+  // (forgotten alike): taken back when a model change shows they were measured against the wrong
+  // model. A floor fit to a lob's rising rays (one camera) put the level at 1 for seconds, 16x
+  // the rays' noise.
+  struct NoiseShare {
+    float chi2 = 0, dof = 0;
+  };
+  static constexpr int kNoiseRecent = 4;
+  NoiseShare seg_noise_, recent_noise_[kNoiseRecent];
+  int recent_head_ = 0;
+  void RetractNoise(NoiseShare& share);
+  void RetractSegmentNoise();           // the segment's model was wrong for all its frames
+  void RetractRecentNoise(int frames);  // ... for its newest `frames` (a restart's off frames)
 };
 
 }  // namespace bv

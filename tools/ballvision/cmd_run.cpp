@@ -679,11 +679,16 @@ void PrintOverall(const std::string& seq, const std::vector<FrameRecord>& recs,
         "%%); flagged unobservable in %d frames\n",
         100.0 * inside[0] / axes, axes, 100.0 * inside[1] / axes, 100.0 * inside[2] / axes,
         unobservable);
-    // The shape: heavier tails than a Gaussian's show as a small 68th and a large 99.7th.
+    // The shape: heavier tails than a Gaussian's show as a small 68th and a large 99.7th; the
+    // rms, what a consumer weighting by 1 / sigma^2 relies on, is 1 for a right variance whatever
+    // the shape.
+    double sum_sq = 0;
+    for (const double r : in_sigmas) sum_sq += std::min(r, 1e3) * std::min(r, 1e3);
     std::printf(
         "uncertainty percentiles: |error| / sigma at the 68th / 95th / 99.7th %.2f / %.2f / %.2f "
-        "(1 / 1.96 / 3 when calibrated)\n",
-        Percentile(in_sigmas, 0.68), Percentile(in_sigmas, 0.95), Percentile(in_sigmas, 0.997));
+        "(1 / 1.96 / 3 when calibrated); rms %.2f (1)\n",
+        Percentile(in_sigmas, 0.68), Percentile(in_sigmas, 0.95), Percentile(in_sigmas, 0.997),
+        std::sqrt(sum_sq / static_cast<double>(in_sigmas.size())));
     std::printf("uncertainty by phase, within 1 / 2 / 3 sigma:");
     for (int k = 0; k < 4; ++k) {
       if (phase_axes[k] == 0) continue;
