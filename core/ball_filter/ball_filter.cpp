@@ -874,7 +874,7 @@ bool BallFilter::RestartSegment(int seg_frames) {
   fit_ = fits[pick];
   b_pending_ = false;
   off_count_ = 0;
-  RetractRecentNoise(n_off);
+  RetractRecentNoise(n_off - 1);  // the newest frame, off too, is not learned yet
   return true;
 }
 

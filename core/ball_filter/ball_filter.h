@@ -251,7 +251,7 @@ class BallFilter {
   int recent_head_ = 0;
   void RetractNoise(NoiseShare& share);
   void RetractSegmentNoise();           // the segment's model was wrong for all its frames
-  void RetractRecentNoise(int frames);  // ... for its newest `frames` (a restart's off frames)
+  void RetractRecentNoise(int frames);  // ... for the newest `frames` learned (a restart)
 };
 
 }  // namespace bv
