@@ -1083,11 +1083,12 @@ void BallFilter::LearnRayNoise() {
   const float cap = kHuberSigma * kHuberSigma * noise_level();
   noise_chi2_ *= kNoiseForget;
   noise_dof_ *= kNoiseForget;
-  for (NoiseShare* n :
-       {&seg_noise_, &recent_noise_[0], &recent_noise_[1], &recent_noise_[2], &recent_noise_[3]}) {
-    n->chi2 *= kNoiseForget;
-    n->dof *= kNoiseForget;
-  }
+  auto forget = [](NoiseShare& n) {
+    n.chi2 *= kNoiseForget;
+    n.dof *= kNoiseForget;
+  };
+  forget(seg_noise_);
+  for (NoiseShare& n : recent_noise_) forget(n);
   for (int k = 0; k < s.n; ++k) {
     const StoredRay& r = s.rays[k];
     RayRows rr;
