@@ -412,6 +412,30 @@ class Signals(Base):
                            sig)
 
     @unittest.skipUnless(os.path.isdir(BOUNCE), "shared data absent")
+    def test_eval_sigma_errors_are_the_axes_it_scored(self):
+        # The per-axis file is what pools the calibration over sequences: the same axes and the
+        # same fraction within 1 sigma as the printed figure; a symlink is refused.
+        out = self.path("se.csv")
+        r = self.bv("eval", BOUNCE, "--calib", REF, "--lut", "builtin", "--sigma-errors", out)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        line = [l for l in r.stdout.splitlines() if l.startswith("uncertainty: ")][0]
+        within = float(line.split("1-sigma on ")[1].split(" %")[0])
+        n = int(line.split("n=")[1].split(")")[0])
+        rows = read(out).splitlines()
+        self.assertEqual(rows[0], "index,phase,axis,error_m,sigma_m")
+        vals = [row.split(",") for row in rows[1:]]
+        self.assertEqual(len(vals), n)
+        inside = sum(abs(float(v[3])) <= float(v[4]) for v in vals)
+        self.assertAlmostEqual(100.0 * inside / n, within, delta=0.051)
+        self.assertTrue(all(float(v[4]) > 0 and v[2] in "xyz" for v in vals))
+        victim = self.path("victim")
+        write(victim, "KEEP")
+        link = self.path("link.csv")
+        os.symlink(victim, link)
+        self.refused(["eval", BOUNCE, "--calib", REF, "--lut", "builtin", "--sigma-errors", link],
+                     1, "it is a symbolic link", [victim])
+
+    @unittest.skipUnless(os.path.isdir(BOUNCE), "shared data absent")
     def test_run_sigint_writes_the_frames_done(self):
         out = self.path("st.csv")
         p = subprocess.Popen([BV, "run", BOUNCE, "--calib", REF, "--out", out],

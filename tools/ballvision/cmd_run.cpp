@@ -35,7 +35,7 @@ namespace bv::cli {
 namespace {
 
 struct Args {
-  std::string seq, calib, out, lut, annotate, plots, features, paths;
+  std::string seq, calib, out, lut, annotate, plots, features, paths, sigma_errors;
   int predict_ms = -1;
   double at_ms = -1;
   double bounce_factor = -1;
@@ -58,7 +58,10 @@ constexpr char kRunUsage[] =
 constexpr char kEvalUsage[] =
     "usage: ballvision eval SEQ --calib FILE [--lut FILE] [--plots DIR]\n"
     "       [--predict-ms N (200)] [--at-ms T (prediction plot start)]\n"
-    "       [--bounce-factor B (0.7)] [--out states.csv] [--annotate DIR] [--stills]\n";
+    "       [--bounce-factor B (0.7)] [--out states.csv] [--annotate DIR] [--stills]\n"
+    "       [--sigma-errors FILE]\n"
+    "  --sigma-errors FILE  per state axis scored for the uncertainty: index,phase,axis,\n"
+    "             error_m,sigma_m (to pool the calibration over several sequences)\n";
 constexpr char kDemoUsage[] =
     "usage: ballvision demo [--out DIR (./demo_out)] [--frames N (75)]\n"
     "Draws a bouncing lob and a static grid through the built-in reference-rig\n"
@@ -610,8 +613,8 @@ void PrintMeasurementError(const std::vector<FrameRecord>& recs,
 }
 
 // Detection and state error, then the raw measurements (before the filter).
-void PrintOverall(const std::string& seq, const std::vector<FrameRecord>& recs,
-                  const std::map<uint64_t, Truth>& truth) {
+bool PrintOverall(const std::string& seq, const std::vector<FrameRecord>& recs,
+                  const std::map<uint64_t, Truth>& truth, const std::string& sigma_errors) {
   int with_truth = 0, found = 0, tri = 0;
   std::vector<double> err_state;
   for (const auto& r : recs) {
@@ -637,6 +640,15 @@ void PrintOverall(const std::string& seq, const std::vector<FrameRecord>& recs,
   int unobservable = 0;
   int phase_inside[4][3] = {}, phase_axes[4] = {};  // within 1, 2, 3 sigma, by phase
   std::vector<double> in_sigmas;                    // |error| / sigma per axis
+  SafeOutput scored;
+  std::string error;
+  if (!sigma_errors.empty()) {
+    if (!scored.Open(sigma_errors, error)) {
+      std::fprintf(stderr, "ballvision eval: %s\n", error.c_str());
+      return false;
+    }
+    scored << "index,phase,axis,error_m,sigma_m\n";
+  }
   for (const auto& r : recs) {
     const Truth* t = TruthAt(truth, r.state.t_us);
     if (!t || !r.state.found) continue;
@@ -658,6 +670,12 @@ void PrintOverall(const std::string& seq, const std::vector<FrameRecord>& recs,
       for (int m = 0; m < 3; ++m) phase_inside[phase][m] += std::fabs(err[j]) <= (m + 1) * sig[j];
       ++phase_axes[phase];
       in_sigmas.push_back(sig[j] > 0 ? std::fabs(err[j]) / sig[j] : 1e9);
+      if (scored.is_open()) {
+        char row[96];
+        std::snprintf(row, sizeof row, "%lld,%d,%c,%.6f,%.6f\n", static_cast<long long>(r.index),
+                      phase, "xyz"[j], err[j], sig[j]);
+        scored << row;
+      }
     }
   }
   std::printf("state 3D error by phase:");
@@ -699,6 +717,11 @@ void PrintOverall(const std::string& seq, const std::vector<FrameRecord>& recs,
     std::printf("\n");
   }
   PrintMeasurementError(recs, truth);
+  if (scored.is_open() && !scored.Commit(error)) {
+    std::fprintf(stderr, "ballvision eval: %s\n", error.c_str());
+    return false;
+  }
+  return true;
 }
 
 // physics.bounces[].t_s of the renderer's scene_extra.json; none when the file has none.
@@ -910,7 +933,9 @@ int CmdEval(int argc, char** argv) {
   Args a;
   ArgParser p("ballvision eval", kEvalUsage);
   PipelineOptions(p, a);
-  p.Text("--plots", a.plots).Number("--at-ms", 0, 1e6, a.at_ms);
+  p.Text("--plots", a.plots)
+      .Text("--sigma-errors", a.sigma_errors)
+      .Number("--at-ms", 0, 1e6, a.at_ms);
   if (const int rc = p.Parse(argc, argv); rc >= 0) return rc;
   std::vector<GridRow> grid;
   std::map<uint64_t, Truth> truth;
@@ -952,7 +977,7 @@ int CmdEval(int argc, char** argv) {
   }
   if (!a.plots.empty() && !WritePlotData(a.plots, recs, pred)) return 1;
 
-  PrintOverall(a.seq, recs, truth);
+  if (!PrintOverall(a.seq, recs, truth, a.sigma_errors)) return 1;
   if (InterruptSignal()) ReportInterrupt("ballvision eval");
   if (is_grid) {
     EvalGrid(a, *s.pipeline->calibration(), grid, recs, truth);
