@@ -122,6 +122,9 @@ BallObservation Observe(const Eigen::Vector3f& p, uint64_t t_us, Cams cams, int 
 BallFilterConfig Config() {
   BallFilterConfig c;
   c.drag_per_m = kDrag;
+  // The synthetic rays carry exactly their stated noise, one scale, no shared draw: the tests
+  // score the covariance itself, not the 68 % bound the renders' heavier tails call for.
+  c.report_sigma_scale = 1.f;
   return c;
 }
 
@@ -513,6 +516,49 @@ TEST(BallFilter, AKicksFirstLookAheadIsFlaggedUncertain) {
       EXPECT_LT(err, 0.5f) << k;  // what the flag bounds
     }
     ball.Step(1.f / 30.f);
+  }
+}
+
+// What the state publishes is the covariance's 1-sigma times report_sigma_scale (the 68 % bound
+// of heavier-tailed errors); estimates, flags and the covariance itself are untouched, and a scale
+// that is not a positive number publishes the covariance's.
+TEST(BallFilter, ThePublishedSigmaIsTheCovariancesScaledAndNothingElseChanges) {
+  for (const float bad : {0.f, -1.f, std::numeric_limits<float>::quiet_NaN()}) {
+    for (const float scale : {0.8f, bad}) {
+      BallFilterConfig scaled = Config();
+      scaled.report_sigma_scale = scale;
+      const float expect = scale > 0.f ? scale : 1.f;
+      BallFilterConfig plain = Config();
+      plain.report_sigma_scale = 1.f;
+      BallFilter f1(plain), f2(scaled);
+      Sim ball{Eigen::Vector3f(-1.f, 6.f, kR), Eigen::Vector3f::Zero()};
+      int uncertain = 0;
+      for (int k = 0; k < 16; ++k) {
+        if (k == 4) ball.v = Eigen::Vector3f(1.5f, -5.f, 4.f);  // a kick: flag 14 on its first
+        const BallObservation o = Observe(ball.p, FrameUs(k), kBoth, k, 0.5f);
+        f1.Update(o);
+        f2.Update(o);
+        BallState a, b;
+        f1.FillState(FrameUs(k), 200000, a);
+        f2.FillState(FrameUs(k), 200000, b);
+        ASSERT_TRUE(a.found && b.found);
+        EXPECT_EQ(a.flags, b.flags) << k;
+        uncertain += (a.flags & kFlagPredictionUncertain) != 0;
+        EXPECT_EQ(Pos(a), Pos(b));
+        EXPECT_EQ(Eigen::Vector3f(a.px_m, a.py_m, a.pz_m), Eigen::Vector3f(b.px_m, b.py_m, b.pz_m));
+        const float sa[6] = {a.sigma_x_m,  a.sigma_y_m,  a.sigma_z_m,
+                             a.psigma_x_m, a.psigma_y_m, a.psigma_z_m};
+        const float sb[6] = {b.sigma_x_m,  b.sigma_y_m,  b.sigma_z_m,
+                             b.psigma_x_m, b.psigma_y_m, b.psigma_z_m};
+        for (int j = 0; j < 6; ++j) EXPECT_FLOAT_EQ(sb[j], expect * sa[j]) << k << " " << j;
+        Eigen::Vector3f c1, c2;
+        ASSERT_TRUE(f1.SigmaAt(FrameUs(k), c1) && f2.SigmaAt(FrameUs(k), c2));
+        EXPECT_EQ(c1, c2);
+        EXPECT_FLOAT_EQ(a.sigma_x_m, c1.x());
+        ball.Step(1.f / 30.f);
+      }
+      EXPECT_GT(uncertain, 0);  // the flag was compared where it is set, too
+    }
   }
 }
 

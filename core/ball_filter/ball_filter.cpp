@@ -1132,6 +1132,12 @@ float BallFilter::NoisePrior() const {
                                              : 1.f;
 }
 
+float BallFilter::ReportSigmaScale() const {
+  return std::isfinite(cfg_.report_sigma_scale) && cfg_.report_sigma_scale > 0.f
+             ? std::min(cfg_.report_sigma_scale, 4.f)
+             : 1.f;
+}
+
 float BallFilter::noise_level() const {
   return noise_dof_ > 0.f ? std::clamp(noise_chi2_ / noise_dof_, kMinQuietScale, 1.f)
                           : NoisePrior();
@@ -1235,6 +1241,8 @@ void BallFilter::FillState(uint64_t t_us, uint32_t ahead_us, BallState& out) con
   BallMode mode;
   StateAt(t_us, p, v, mode);
   SigmaAt(t_us, s);
+  const float report = ReportSigmaScale();
+  s *= report;
   out.found = true;
   out.x_m = p.x();
   out.y_m = p.y();
@@ -1262,10 +1270,11 @@ void BallFilter::FillState(uint64_t t_us, uint32_t ahead_us, BallState& out) con
   out.pz_m = p.z();
   out.flags |= kFlagHasPrediction;
   PredictionSigma(t_us, t_us + ahead_us, s);
+  if (!(s.norm() <= cfg_.unobservable_sigma_m)) out.flags |= kFlagPredictionUncertain;
+  s *= report;
   out.psigma_x_m = s.x();
   out.psigma_y_m = s.y();
   out.psigma_z_m = s.z();
-  if (!(s.norm() <= cfg_.unobservable_sigma_m)) out.flags |= kFlagPredictionUncertain;
 }
 
 }  // namespace bv

@@ -612,6 +612,45 @@ void PrintMeasurementError(const std::vector<FrameRecord>& recs,
   }
 }
 
+// How often the true error per axis lies within 1, 2, 3 of the state's sigma, pooled and by phase,
+// and the shape of |error| / sigma.
+void PrintUncertainty(const char* const phase_names[4], const int phase_inside[4][3],
+                      const int phase_axes[4], const std::vector<double>& in_sigmas,
+                      int unobservable) {
+  int inside[3] = {}, axes = 0;
+  for (int k = 0; k < 4; ++k) {
+    for (int m = 0; m < 3; ++m) inside[m] += phase_inside[k][m];
+    axes += phase_axes[k];
+  }
+  if (axes > 0) {
+    std::printf(
+        "uncertainty: true error within the state's 1-sigma on %.1f %% of axes (68 %% when "
+        "calibrated, n=%d), within 2 sigma on %.1f %% (95 %%), within 3 sigma on %.1f %% (99.7 "
+        "%%); flagged unobservable in %d frames\n",
+        100.0 * inside[0] / axes, axes, 100.0 * inside[1] / axes, 100.0 * inside[2] / axes,
+        unobservable);
+    // The shape: heavier tails than a Gaussian's show as a small 68th and a large 99.7th; the
+    // rms, what a consumer weighting by 1 / sigma^2 relies on, is 1 for a right variance whatever
+    // the shape.
+    double sum_sq = 0;
+    for (const double r : in_sigmas) sum_sq += std::min(r, 1e3) * std::min(r, 1e3);
+    std::printf(
+        "uncertainty percentiles: |error| / sigma at the 68th / 95th / 99.7th %.2f / %.2f / %.2f "
+        "(1 / 1.96 / 3 when calibrated); rms %.2f (1)\n",
+        Percentile(in_sigmas, 0.68), Percentile(in_sigmas, 0.95), Percentile(in_sigmas, 0.997),
+        std::sqrt(sum_sq / static_cast<double>(in_sigmas.size())));
+    std::printf("uncertainty by phase, within 1 / 2 / 3 sigma:");
+    for (int k = 0; k < 4; ++k) {
+      if (phase_axes[k] == 0) continue;
+      const double n = phase_axes[k];
+      std::printf(" %s %.1f / %.1f / %.1f %% (n=%d);", phase_names[k],
+                  100.0 * phase_inside[k][0] / n, 100.0 * phase_inside[k][1] / n,
+                  100.0 * phase_inside[k][2] / n, phase_axes[k]);
+    }
+    std::printf("\n");
+  }
+}
+
 // Detection and state error, then the raw measurements (before the filter).
 bool PrintOverall(const std::string& seq, const std::vector<FrameRecord>& recs,
                   const std::map<uint64_t, Truth>& truth, const std::string& sigma_errors) {
@@ -685,37 +724,7 @@ bool PrintOverall(const std::string& seq, const std::vector<FrameRecord>& recs,
                 Percentile(by_phase[k], 0.9) * 100, by_phase[k].size());
   }
   std::printf(" median / p90\n");
-  int inside[3] = {}, axes = 0;
-  for (int k = 0; k < 4; ++k) {
-    for (int m = 0; m < 3; ++m) inside[m] += phase_inside[k][m];
-    axes += phase_axes[k];
-  }
-  if (axes > 0) {
-    std::printf(
-        "uncertainty: true error within the state's 1-sigma on %.1f %% of axes (68 %% when "
-        "calibrated, n=%d), within 2 sigma on %.1f %% (95 %%), within 3 sigma on %.1f %% (99.7 "
-        "%%); flagged unobservable in %d frames\n",
-        100.0 * inside[0] / axes, axes, 100.0 * inside[1] / axes, 100.0 * inside[2] / axes,
-        unobservable);
-    // The shape: heavier tails than a Gaussian's show as a small 68th and a large 99.7th; the
-    // rms, what a consumer weighting by 1 / sigma^2 relies on, is 1 for a right variance whatever
-    // the shape.
-    double sum_sq = 0;
-    for (const double r : in_sigmas) sum_sq += std::min(r, 1e3) * std::min(r, 1e3);
-    std::printf(
-        "uncertainty percentiles: |error| / sigma at the 68th / 95th / 99.7th %.2f / %.2f / %.2f "
-        "(1 / 1.96 / 3 when calibrated); rms %.2f (1)\n",
-        Percentile(in_sigmas, 0.68), Percentile(in_sigmas, 0.95), Percentile(in_sigmas, 0.997),
-        std::sqrt(sum_sq / static_cast<double>(in_sigmas.size())));
-    std::printf("uncertainty by phase, within 1 / 2 / 3 sigma:");
-    for (int k = 0; k < 4; ++k) {
-      if (phase_axes[k] == 0) continue;
-      const double n = phase_axes[k];
-      std::printf(" %s %.1f / %.1f / %.1f %% (n=%d);", kPhase[k], 100.0 * phase_inside[k][0] / n,
-                  100.0 * phase_inside[k][1] / n, 100.0 * phase_inside[k][2] / n, phase_axes[k]);
-    }
-    std::printf("\n");
-  }
+  PrintUncertainty(kPhase, phase_inside, phase_axes, in_sigmas, unobservable);
   PrintMeasurementError(recs, truth);
   if (scored.is_open() && !scored.Commit(error)) {
     std::fprintf(stderr, "ballvision eval: %s\n", error.c_str());
