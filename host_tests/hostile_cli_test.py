@@ -432,8 +432,9 @@ class Signals(Base):
         write(victim, "KEEP")
         link = self.path("link.csv")
         os.symlink(victim, link)
-        self.refused(["eval", BOUNCE, "--calib", REF, "--lut", "builtin", "--sigma-errors", link],
-                     1, "it is a symbolic link", [victim])
+        r = self.refused(["eval", BOUNCE, "--calib", REF, "--lut", "builtin", "--sigma-errors",
+                          link], 1, "it is a symbolic link", [victim])
+        self.assertEqual(r.stdout, "")  # refused before the sequence ran
 
     @unittest.skipUnless(os.path.isdir(BOUNCE), "shared data absent")
     def test_run_sigint_writes_the_frames_done(self):

@@ -622,33 +622,31 @@ void PrintUncertainty(const char* const phase_names[4], const int phase_inside[4
     for (int m = 0; m < 3; ++m) inside[m] += phase_inside[k][m];
     axes += phase_axes[k];
   }
-  if (axes > 0) {
-    std::printf(
-        "uncertainty: true error within the state's 1-sigma on %.1f %% of axes (68 %% when "
-        "calibrated, n=%d), within 2 sigma on %.1f %% (95 %%), within 3 sigma on %.1f %% (99.7 "
-        "%%); flagged unobservable in %d frames\n",
-        100.0 * inside[0] / axes, axes, 100.0 * inside[1] / axes, 100.0 * inside[2] / axes,
-        unobservable);
-    // The shape: heavier tails than a Gaussian's show as a small 68th and a large 99.7th; the
-    // rms, what a consumer weighting by 1 / sigma^2 relies on, is 1 for a right variance whatever
-    // the shape.
-    double sum_sq = 0;
-    for (const double r : in_sigmas) sum_sq += std::min(r, 1e3) * std::min(r, 1e3);
-    std::printf(
-        "uncertainty percentiles: |error| / sigma at the 68th / 95th / 99.7th %.2f / %.2f / %.2f "
-        "(1 / 1.96 / 3 when calibrated); rms %.2f (1)\n",
-        Percentile(in_sigmas, 0.68), Percentile(in_sigmas, 0.95), Percentile(in_sigmas, 0.997),
-        std::sqrt(sum_sq / static_cast<double>(in_sigmas.size())));
-    std::printf("uncertainty by phase, within 1 / 2 / 3 sigma:");
-    for (int k = 0; k < 4; ++k) {
-      if (phase_axes[k] == 0) continue;
-      const double n = phase_axes[k];
-      std::printf(" %s %.1f / %.1f / %.1f %% (n=%d);", phase_names[k],
-                  100.0 * phase_inside[k][0] / n, 100.0 * phase_inside[k][1] / n,
-                  100.0 * phase_inside[k][2] / n, phase_axes[k]);
-    }
-    std::printf("\n");
+  if (axes == 0) return;
+  std::printf(
+      "uncertainty: true error within the state's 1-sigma on %.1f %% of axes (68 %% when "
+      "calibrated, n=%d), within 2 sigma on %.1f %% (95 %%), within 3 sigma on %.1f %% (99.7 "
+      "%%); flagged unobservable in %d frames\n",
+      100.0 * inside[0] / axes, axes, 100.0 * inside[1] / axes, 100.0 * inside[2] / axes,
+      unobservable);
+  // The shape: heavier tails than a Gaussian's show as a small 68th and a large 99.7th; the
+  // rms, what a consumer weighting by 1 / sigma^2 relies on, is 1 for a right variance whatever
+  // the shape.
+  double sum_sq = 0;
+  for (const double r : in_sigmas) sum_sq += std::min(r, 1e3) * std::min(r, 1e3);
+  std::printf(
+      "uncertainty percentiles: |error| / sigma at the 68th / 95th / 99.7th %.2f / %.2f / %.2f "
+      "(1 / 1.96 / 3 when calibrated); rms %.2f (1)\n",
+      Percentile(in_sigmas, 0.68), Percentile(in_sigmas, 0.95), Percentile(in_sigmas, 0.997),
+      std::sqrt(sum_sq / static_cast<double>(in_sigmas.size())));
+  std::printf("uncertainty by phase, within 1 / 2 / 3 sigma:");
+  for (int k = 0; k < 4; ++k) {
+    if (phase_axes[k] == 0) continue;
+    const double n = phase_axes[k];
+    std::printf(" %s %.1f / %.1f / %.1f %% (n=%d);", phase_names[k], 100.0 * phase_inside[k][0] / n,
+                100.0 * phase_inside[k][1] / n, 100.0 * phase_inside[k][2] / n, phase_axes[k]);
   }
+  std::printf("\n");
 }
 
 // Detection and state error, then the raw measurements (before the filter).
@@ -946,6 +944,14 @@ int CmdEval(int argc, char** argv) {
       .Text("--sigma-errors", a.sigma_errors)
       .Number("--at-ms", 0, 1e6, a.at_ms);
   if (const int rc = p.Parse(argc, argv); rc >= 0) return rc;
+  // Refused before the sequence runs, not after.
+  for (const std::string* path : {&a.out, &a.sigma_errors}) {
+    std::string err;
+    if (!path->empty() && !CheckOutputPath(*path, err)) {
+      std::fprintf(stderr, "ballvision eval: %s\n", err.c_str());
+      return 1;
+    }
+  }
   std::vector<GridRow> grid;
   std::map<uint64_t, Truth> truth;
   bool is_grid = false;
