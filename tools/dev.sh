@@ -10,7 +10,7 @@ cd "$(dirname "$0")/.."
 PACKAGES=(
   build-essential cmake ninja-build git pkg-config
   libeigen3-dev libgtest-dev libgmock-dev googletest libbenchmark-dev
-  libopencv-dev libpng-dev nlohmann-json3-dev
+  libopencv-dev libpng-dev libjpeg-dev nlohmann-json3-dev
   gcc-arm-none-eabi binutils-arm-none-eabi libnewlib-arm-none-eabi libstdc++-arm-none-eabi-newlib
   qemu-system-arm
   python3 python3-numpy python3-matplotlib python3-serial

@@ -1,5 +1,6 @@
 #include "core/color_lut/color_lut.h"
 
+#include <cmath>
 #include <cstring>
 
 #include "core/common/blob.h"
@@ -91,15 +92,46 @@ ChromaBox Union(const ChromaBox& a, const ChromaBox& b) {
   return out;
 }
 
-Result<size_t> SerializeLut(const ColorLut& lut, std::span<uint8_t> out) {
+bool FloorProfileSane(const FloorBallProfile& p) {
+  if (!p.valid) return true;
+  return std::isfinite(p.horizon_v_px) && p.slope > 0.0f && p.slope <= 10.0f &&
+         std::isfinite(p.curve) && std::fabs(p.curve) < 1.0f && p.spread >= 0.0f &&
+         std::isfinite(p.spread) && p.width_px >= 1 && p.width_px <= 4096 && p.height_px >= 1 &&
+         p.height_px <= 4096;
+}
+
+namespace {
+void WriteCameraSection(ByteWriter& w, const FloorBallProfile* profile) {
+  const FloorBallProfile p = profile != nullptr ? *profile : FloorBallProfile{};
+  w.U8(p.valid ? 1 : 0);
+  for (int i = 0; i < 3; ++i) w.U8(0);
+  w.U16(p.width_px);
+  w.U16(p.height_px);
+  w.F32(p.horizon_v_px);
+  w.F32(p.slope);
+  w.F32(p.curve);
+  w.F32(p.spread);
+  w.U16(p.samples);
+  for (int i = 0; i < 6; ++i) w.U8(0);
+}
+}  // namespace
+
+Result<size_t> SerializeLut(const ColorLut& lut, std::span<uint8_t> out,
+                            const FloorBallProfile* profile) {
   if (out.size() < kColorLutBlobBytes) {
     return Status(StatusCode::kResourceExhausted,
                   "SerializeLut: output smaller than kColorLutBlobBytes");
   }
+  if (profile != nullptr && !FloorProfileSane(*profile)) {
+    return Status(StatusCode::kInvalidArgument, "SerializeLut: floor-ball profile out of range");
+  }
   // Header written by hand (not WriteBlob) so the 64 KB payload needs no scratch copy.
   const uint8_t layout[4] = {ColorLut::kYBits, ColorLut::kUBits, ColorLut::kVBits,
                              kColorClassCount};
-  const uint32_t crc = EntriesCrc(Crc32Update(0, layout), lut);
+  uint8_t camera[kColorLutCameraBytes];
+  ByteWriter cw(camera);
+  WriteCameraSection(cw, profile);
+  const uint32_t crc = Crc32Update(EntriesCrc(Crc32Update(0, layout), lut), camera);
   ByteWriter w(out);
   w.U32(kBlobMagic);
   w.U16(static_cast<uint16_t>(BlobKind::kColorLut));
@@ -112,16 +144,19 @@ Result<size_t> SerializeLut(const ColorLut& lut, std::span<uint8_t> out) {
     lut.CopyEntries(i, chunk);
     w.Bytes(chunk);
   }
+  w.Bytes(camera);
   BV_TRY(w.status());
   return w.size();
 }
 
-Status ParseLut(std::span<const uint8_t> blob, ColorLut& out) {
+Status ParseLut(std::span<const uint8_t> blob, ColorLut& out, FloorBallProfile* profile) {
   Result<BlobView> view = ReadBlob(blob, BlobKind::kColorLut, kColorLutBlobVersion);
   if (!view.ok()) return view.status();
   std::span<const uint8_t> p = view->payload;
-  if (p.size() != kColorLutPayloadBytes) {
-    return Status(StatusCode::kInvalidArgument, "ParseLut: payload size is not 4 + 65536 bytes");
+  const size_t expected = view->version == 1 ? kColorLutPayloadBytesV1 : kColorLutPayloadBytes;
+  if (p.size() != expected) {
+    return Status(StatusCode::kInvalidArgument,
+                  "ParseLut: payload size is not 4 + 65536 (+ 32 from version 2) bytes");
   }
   if (p[0] != ColorLut::kYBits || p[1] != ColorLut::kUBits || p[2] != ColorLut::kVBits) {
     return Status(StatusCode::kInvalidArgument, "ParseLut: bit layout is not Y4/U6/V6");
@@ -134,8 +169,31 @@ Status ParseLut(std::span<const uint8_t> blob, ColorLut& out) {
       return Status(StatusCode::kInvalidArgument, "ParseLut: table entry names an unknown class");
     }
   }
+  FloorBallProfile fp;
+  if (view->version >= 2) {
+    ByteReader r(p.subspan(kColorLutPayloadBytesV1));
+    const uint8_t valid = r.U8();
+    for (int i = 0; i < 3; ++i) r.U8();
+    fp.width_px = r.U16();
+    fp.height_px = r.U16();
+    fp.horizon_v_px = r.F32();
+    fp.slope = r.F32();
+    fp.curve = r.F32();
+    fp.spread = r.F32();
+    fp.samples = r.U16();
+    if (valid > 1) {
+      return Status(StatusCode::kInvalidArgument, "ParseLut: camera section flag is not 0 or 1");
+    }
+    fp.valid = valid == 1;
+    if (!FloorProfileSane(fp)) {
+      return Status(StatusCode::kInvalidArgument,
+                    "ParseLut: camera section's floor-ball profile out of range");
+    }
+    if (!fp.valid) fp = FloorBallProfile{};
+  }
   for (size_t i = 0; i < ColorLut::kEntries; ++i)
     out.Set(static_cast<uint32_t>(i), static_cast<ColorClass>(p[4 + i]));
+  if (profile != nullptr) *profile = fp;
   return Status::Ok();
 }
 

@@ -12,6 +12,7 @@
 #include <arm_acle.h>
 #endif
 
+#include "core/ball_check/floor_profile.h"
 #include "core/common/status.h"
 
 namespace bv {
@@ -112,16 +113,29 @@ class ColorLut {
 };
 
 // --- the device blob (BlobKind::kColorLut) ---
-// payload: y_bits u8 | u_bits u8 | v_bits u8 | class_count u8 | table (kEntries bytes)
-inline constexpr uint16_t kColorLutBlobVersion = 1;
-inline constexpr size_t kColorLutPayloadBytes = 4 + ColorLut::kEntries;
+// payload: y_bits u8 | u_bits u8 | v_bits u8 | class_count u8 | table (kEntries bytes) |
+//          camera section (version 2, kColorLutCameraBytes): what a teach from boxes learned of
+//          the camera's geometry (FloorBallProfile):
+//          valid u8 | 3 x 0 | width u16 | height u16 | horizon_v f32 | slope f32 | curve f32 |
+//          spread f32 | samples u16 | 6 x 0
+// Version 1 blobs (no camera section) still load, with no profile.
+inline constexpr uint16_t kColorLutBlobVersion = 2;
+inline constexpr size_t kColorLutCameraBytes = 32;
+inline constexpr size_t kColorLutPayloadBytesV1 = 4 + ColorLut::kEntries;
+inline constexpr size_t kColorLutPayloadBytes = kColorLutPayloadBytesV1 + kColorLutCameraBytes;
 inline constexpr size_t kColorLutBlobBytes = 16 + kColorLutPayloadBytes;
 
-/// Errors: kResourceExhausted if `out` is smaller than kColorLutBlobBytes.
-Result<size_t> SerializeLut(const ColorLut& lut, std::span<uint8_t> out);
-/// Validates magic, kind, version, length, CRC, the bit layout and every class value before
-/// touching `out`. Errors: kDataLoss (truncated/CRC), kInvalidArgument (layout, class values),
+/// `profile` may be null (no camera section content: valid = 0). Errors: kResourceExhausted if
+/// `out` is smaller than kColorLutBlobBytes, kInvalidArgument for a profile ParseLut would refuse.
+Result<size_t> SerializeLut(const ColorLut& lut, std::span<uint8_t> out,
+                            const FloorBallProfile* profile = nullptr);
+/// Validates magic, kind, version, length, CRC, the bit layout, every class value and the camera
+/// section before touching `out` or `profile` (may be null; set invalid when the blob has none).
+/// Errors: kDataLoss (truncated/CRC), kInvalidArgument (layout, class values, camera section),
 /// kUnimplemented (newer version).
-Status ParseLut(std::span<const uint8_t> blob, ColorLut& out);
+Status ParseLut(std::span<const uint8_t> blob, ColorLut& out, FloorBallProfile* profile = nullptr);
+/// The camera section's checks: a valid profile has a finite horizon, slope in (0, 10], finite
+/// curve, spread >= 0 and an image size of 1..4096.
+bool FloorProfileSane(const FloorBallProfile& p);
 
 }  // namespace bv

@@ -43,6 +43,51 @@ bool BallColorTest::Contains(int y, int u, int v) const {
          ContainsIgnoringHue(y, u, v);
 }
 
+const char* BallNameText(BallName b) {
+  switch (b) {
+    case BallName::kRed:
+      return "red";
+    case BallName::kOrange:
+      return "orange";
+    case BallName::kYellow:
+      return "yellow";
+  }
+  return "?";
+}
+
+bool ParseBallName(const char* text, BallName& out) {
+  for (int i = 0; i < kBallNameCount; ++i) {
+    const auto b = static_cast<BallName>(i);
+    const char* name = BallNameText(b);
+    int k = 0;
+    while (name[k] != 0 && text[k] == name[k]) ++k;
+    if (name[k] == 0 && text[k] == 0) {
+      out = b;
+      return true;
+    }
+  }
+  return false;
+}
+
+BallColorModel BuiltInBallModel(BallName b) {
+  BallColorModel m;
+  switch (b) {
+    case BallName::kRed:
+      break;
+    case BallName::kOrange:
+      m.hue_min_deg = 112.0f;
+      m.hue_max_deg = 160.0f;
+      break;
+    case BallName::kYellow:
+      m.hue_min_deg = 145.0f;
+      m.hue_max_deg = 205.0f;
+      m.chroma_min = 0.16f;
+      m.chroma_min_bright = 0.10f;
+      break;
+  }
+  return m;
+}
+
 Status ValidateBallColorModel(const BallColorModel& m) {
   if (!Finite(m.hue_min_deg) || !Finite(m.hue_max_deg) || !Finite(m.chroma_min) ||
       !Finite(m.chroma_min_bright) || !Finite(m.chroma_max)) {

@@ -27,6 +27,16 @@ struct BallColorModel {
   uint8_t y_min = 28, y_max = 255;  // below y_min chroma is mostly sensor noise
 };
 
+/// The match balls the built-in models know, by name (`--ball`, the device's ball command).
+enum class BallName : uint8_t { kRed = 0, kOrange = 1, kYellow = 2 };
+inline constexpr int kBallNameCount = 3;
+const char* BallNameText(BallName b);
+/// "red", "orange" or "yellow"; false for anything else.
+bool ParseBallName(const char* text, BallName& out);
+/// The built-in model of a ball: red is BallColorModel{} (red to orange-red); orange and yellow
+/// cover those balls in sun and shade (core/color_lut/README.md: how each was measured).
+BallColorModel BuiltInBallModel(BallName b);
+
 /// kInvalidArgument naming the bad field: NaN, hue window empty or wider than 170 degrees, chroma
 /// bounds outside (0, 4] or crossed, Y bounds crossed.
 Status ValidateBallColorModel(const BallColorModel& m);

@@ -8,6 +8,7 @@ namespace {
 constexpr float kRadToDeg = 57.2957795f;
 constexpr float kChromaStep = 0.02f;
 constexpr float kMinFitPixels = 100.0f;
+constexpr float kHueReachDeg = 60.0f;
 
 int HueBin(float deg) {
   int b = static_cast<int>(std::floor(deg)) % BallColorStats::kHueBins;
@@ -31,19 +32,6 @@ float Percentile(const float* bins, int n, float step, float q) {
   return (static_cast<float>(n) - 0.5f) * step;
 }
 
-// The same on the circular hue histogram, read from `mean` - 180 deg on: an unwrapped angle
-// within (mean - 180, mean + 180].
-float HuePercentile(const float* bins, float mean, float q) {
-  const float target = q * Total(bins, BallColorStats::kHueBins);
-  const int first = static_cast<int>(std::floor(mean - 180.0f));
-  float acc = 0;
-  for (int k = 0; k < BallColorStats::kHueBins; ++k) {
-    acc += bins[HueBin(static_cast<float>(first + k))];
-    if (acc >= target && acc > 0) return static_cast<float>(first + k) + 0.5f;
-  }
-  return static_cast<float>(first + BallColorStats::kHueBins) - 0.5f;
-}
-
 // Sum of the bins whose centre lies in [lo, hi] (unwrapped degrees).
 float HueCount(const float* bins, float lo, float hi) {
   float n = 0;
@@ -52,6 +40,39 @@ float HueCount(const float* bins, float lo, float hi) {
     if (centre >= lo && centre <= hi) n += bins[HueBin(static_cast<float>(d))];
   }
   return n;
+}
+
+// Value (bin centre, unwrapped near `centre`) below which a fraction q of the hue histogram's
+// bins within `half` degrees of `centre` lies (the ball's own hues, not what
+// else a box holds).
+float HuePercentileNear(const float* bins, float centre, float half, float q) {
+  const float target = q * HueCount(bins, centre - half, centre + half);
+  const int first = static_cast<int>(std::floor(centre - half));
+  float acc = 0;
+  for (int d = first; d <= static_cast<int>(std::ceil(centre + half)); ++d) {
+    const float c = static_cast<float>(d) + 0.5f;
+    if (c < centre - half || c > centre + half) continue;
+    acc += bins[HueBin(static_cast<float>(d))];
+    if (acc >= target && acc > 0) return c;
+  }
+  return centre + half;
+}
+
+// The most common hue, from the histogram summed over a sliding window of +-`half` degrees.
+float HueMode(const float* bins, int half) {
+  constexpr int n = BallColorStats::kHueBins;
+  float sum = 0;
+  for (int d = -half; d <= half; ++d) sum += bins[(d + n) % n];
+  float best = sum;
+  int best_i = 0;
+  for (int i = 1; i < n; ++i) {
+    sum += bins[(i + half) % n] - bins[(i - half - 1 + n) % n];
+    if (sum > best) {
+      best = sum;
+      best_i = i;
+    }
+  }
+  return static_cast<float>(best_i) + 0.5f;
 }
 
 float Clamp(float x, float lo, float hi) { return x < lo ? lo : (x > hi ? hi : x); }
@@ -145,11 +166,13 @@ Status BallColorStats::Fit(const BallColorModel& start, BallColorModel& out) con
                   "ball colour");
   }
   BallColorModel m = start;
-  // Hue: the central 96 % with a margin for what the pixels did not show (4 deg ~ the spread of
-  // one surface's pixels from sensor noise at Y 60).
-  const float mean = hue_mean_deg();
-  const float h_lo = HuePercentile(hue_, mean, 0.02f) - 4.0f;
-  const float h_hi = HuePercentile(hue_, mean, 0.98f) + 4.0f;
+  // Hue: the central 96 % of the pixels within kHueReachDeg of the most common hue, with a margin
+  // for what the pixels did not show (4 deg ~ the spread of one surface's pixels from sensor
+  // noise at Y 60). Beyond that reach a taught region's pixels are not the ball's surface (the
+  // carpet or a robot inside a box, the white of a highlight tinted by the lens), however many.
+  const float mode = HueMode(hue_, 10);
+  const float h_lo = HuePercentileNear(hue_, mode, kHueReachDeg, 0.02f) - 4.0f;
+  const float h_hi = HuePercentileNear(hue_, mode, kHueReachDeg, 0.98f) + 4.0f;
   const float mid = 0.5f * (h_lo + h_hi);
   const float half = 0.5f * (h_hi - h_lo) > 8.0f ? 0.5f * (h_hi - h_lo) : 8.0f;
   m.hue_min_deg = mid - half;
@@ -187,11 +210,12 @@ void HueHistogram::AddIfInModelIgnoringHue(const BallColorTest& test, const Yuv&
 
 void NarrowHueWindow(const BallColorStats& ball, const HueHistogram& background,
                      float background_weight, BallColorModel& m) {
-  const float total = ball.hue_count();
-  if (total < kMinFitPixels || Total(background.bins, BallColorStats::kHueBins) <= 0) return;
-  // Percentiles unwrapped near the window's centre, so lo and hi compare with its bounds.
+  // The ball's hues are those inside the fitted window (what a box holds beyond it is not the
+  // ball); percentiles unwrapped near the window's centre, so lo and hi compare with its bounds.
   const float centre = 0.5f * (m.hue_min_deg + m.hue_max_deg);
-  const float mean = UnwrapNear(ball.hue_mean_deg(), centre);
+  const float half = 0.5f * (m.hue_max_deg - m.hue_min_deg);
+  const float total = HueCount(ball.hue(), m.hue_min_deg, m.hue_max_deg);
+  if (total < kMinFitPixels || Total(background.bins, BallColorStats::kHueBins) <= 0) return;
   // Never into the central 90 % of the ball's hues, and 2 deg beyond the percentile: a window
   // fitted to the frames taught from must still hold the ball in the light of other frames.
   const float qs_lo[] = {-1, 0.005f, 0.01f, 0.02f, 0.03f, 0.05f};
@@ -200,13 +224,13 @@ void NarrowHueWindow(const BallColorStats& ball, const HueHistogram& background,
   for (float ql : qs_lo) {
     float lo = m.hue_min_deg;
     if (ql >= 0) {
-      const float p = HuePercentile(ball.hue(), mean, ql) - 2.0f;
+      const float p = HuePercentileNear(ball.hue(), centre, half, ql) - 2.0f;
       lo = p > m.hue_min_deg ? p : m.hue_min_deg;
     }
     for (float qh : qs_hi) {
       float hi = m.hue_max_deg;
       if (qh >= 0) {
-        const float p = HuePercentile(ball.hue(), mean, qh) + 2.0f;
+        const float p = HuePercentileNear(ball.hue(), centre, half, qh) + 2.0f;
         hi = p < m.hue_max_deg ? p : m.hue_max_deg;
       }
       if (hi - lo < 6.0f) continue;

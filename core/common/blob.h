@@ -14,6 +14,7 @@ namespace bv {
 enum class BlobKind : uint16_t {
   kCalibration = 1,
   kColorLut = 2,
+  kBallClassifier = 3,
 };
 
 inline constexpr size_t kBlobHeaderBytes = 16;

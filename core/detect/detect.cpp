@@ -67,11 +67,66 @@ bool BallFinder::Passes(const Region& r, bool& in_field) const {
   return in_field || !reject_outside_;
 }
 
+CandidateShape BallFinder::ShapeOf(const Region& r) {
+  CandidateShape c;
+  c.u_px = r.cu_px;
+  c.v_px = r.cv_px;
+  c.area_px = r.area_px;
+  c.radius_px = std::sqrt(r.area_px / 3.14159265f);
+  c.roundness = r.roundness;
+  c.hull_roundness = r.hull_roundness;
+  c.width_ratio = r.width_ratio;
+  c.u_min = r.u_min, c.v_min = r.v_min, c.u_max = r.u_max, c.v_max = r.v_max;
+  c.arc_sectors = r.arc_sectors;
+  return c;
+}
+
+size_t BallFinder::Ranked(std::span<BallDetection> out) const {
+  const auto regions = regions_.regions();
+  size_t n = 0;
+  float keys[kMaxRegions];
+  for (size_t i = 0; i < regions.size(); ++i) {
+    if (rank_key_[i] < 0.0f) continue;
+    const Region& r = regions[i];
+    BallDetection d;
+    d.found = true;
+    d.arc_sectors = r.arc_sectors;
+    d.u_px = r.cu_px;
+    d.v_px = r.cv_px;
+    d.area_px = r.area_px;
+    d.radius_px = std::sqrt(r.area_px / 3.14159265f);
+    d.roundness = r.hull_roundness;
+    d.confidence = rank_key_[i];
+    // The chosen region ranks first whatever its key (a prediction chose it).
+    const float key = static_cast<int>(i) == chosen_ ? 1e30f : rank_key_[i];
+    size_t k = n < out.size() ? n++ : out.size();
+    while (k > 0 && keys[k - 1] < key) {
+      if (k < out.size()) {
+        out[k] = out[k - 1];
+        keys[k] = keys[k - 1];
+      }
+      --k;
+    }
+    if (k < out.size()) {
+      out[k] = d;
+      keys[k] = key;
+    }
+  }
+  if (chosen_ >= 0 && n > 0) {
+    // The chosen ball as Find reported it (soft centroid, confidence).
+    out[0].u_px = chosen_u_;
+    out[0].v_px = chosen_v_;
+  }
+  return n;
+}
+
 size_t BallFinder::Candidates(std::span<BallDetection> out) const {
   size_t n = 0;
-  for (const Region& r : regions_.regions()) {
+  const auto regions = regions_.regions();
+  for (size_t i = 0; i < regions.size(); ++i) {
+    const Region& r = regions[i];
     bool in_field = true;
-    if (r.hole || !Passes(r, in_field)) continue;
+    if (r.hole || !Passes(r, in_field) || refused_[i] != 0) continue;
     BallDetection d;
     d.found = true;
     d.arc_sectors = r.arc_sectors;
@@ -218,6 +273,8 @@ Status BallFinder::Find(const YuyvImage& image, const ColorLut& lut, const Predi
   const Region& ball = regions_.regions()[static_cast<size_t>(choice.best)];
   Report(ball, choice, prediction, out);
   if (config_.soft_centroid) SoftCentroid(image, lut, ball, out);
+  chosen_u_ = out.u_px;
+  chosen_v_ = out.v_px;
   return Status::Ok();
 }
 
@@ -268,12 +325,14 @@ uint32_t BallFinder::Attend(const YuyvImage& image, const ColorLut& lut,
 // shape (ShapeEvidence) with field colour around it (a ball on the carpet; cheap: 16 lookups on a
 // ring).
 BallFinder::Choice BallFinder::ChooseBall(const YuyvImage& image, const ColorLut& lut,
-                                          const Prediction* prediction,
-                                          FrontEndStats& stats) const {
+                                          const Prediction* prediction, FrontEndStats& stats) {
   const auto regions = regions_.regions();
+  const bool checked = config_.check != nullptr && config_.check->active();
   Choice choice;
   for (size_t i = 0; i < regions.size(); ++i) {
     const Region& r = regions[i];
+    rank_key_[i] = -1.0f;
+    refused_[i] = static_cast<uint8_t>(Refusal::kShapeOrField);
     if (r.hole) {
       ++choice.holes;
       continue;
@@ -283,14 +342,35 @@ BallFinder::Choice BallFinder::ChooseBall(const YuyvImage& image, const ColorLut
       stats.outside_field += !in_field;
       continue;
     }
+    refused_[i] = static_cast<uint8_t>(Refusal::kNone);
+    float score = 1;
+    bool classified = false;
+    if (checked) {
+      const CandidateVerdict v = config_.check->Evaluate(image, lut, ShapeOf(r));
+      stats.pixels_read += v.pixels_read;
+      if (!v.pass) {
+        const bool place = v.place != PlaceVerdict::kPlausible;
+        stats.refused_place += place;
+        stats.refused_look += !place;
+        refused_[i] = static_cast<uint8_t>(place ? Refusal::kPlace : Refusal::kLook);
+        continue;
+      }
+      score = v.score;
+      classified = v.classified;
+    }
     ++choice.candidates;
-    float key;
+    // The classifier's probability when it ran, else the shape and the field around it; times
+    // the place check's prior (1 without one).
+    float evidence = score;
+    if (!classified) {
+      evidence *= ShapeEvidence(r) * (0.2f + FieldContext(image, lut, r));
+      stats.pixels_read += kContextSamples;
+    }
+    rank_key_[i] = evidence;
+    float key = evidence;
     if (prediction != nullptr) {
       const float du = r.cu_px - prediction->u_px, dv = r.cv_px - prediction->v_px;
       key = -(du * du + dv * dv);
-    } else {
-      key = ShapeEvidence(r) * (0.2f + FieldContext(image, lut, r));
-      stats.pixels_read += kContextSamples;
     }
     if (choice.best < 0 || (in_field && !choice.in_field) ||
         (in_field == choice.in_field && key > choice.key)) {

@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <span>
 
+#include "core/ball_check/ball_check.h"
 #include "core/color_lut/color_lut.h"
 #include "core/common/ball_state.h"
 #include "core/common/image.h"
@@ -36,6 +37,8 @@ struct FrontEndStats {
   uint32_t candidates = 0;         // regions passing area and roundness
   uint32_t overflows = 0;          // region or chain capacity reached (regions were skipped)
   uint32_t outside_field = 0;      // candidates refused as outside the field (reject mode)
+  uint32_t refused_place = 0;      // candidates the size-and-place check refused
+  uint32_t refused_look = 0;       // candidates the appearance classifier refused
 };
 
 /// Tells whether an image region lies inside the playing field. Supplied by the caller, who has
@@ -79,6 +82,9 @@ struct BallFinderConfig {
   // not from the binary region: a ball in the air loses its edge pixels against the green field
   // below and keeps them against the grey hall above, which moved the centroid 0.2-0.5 px up.
   bool soft_centroid = true;
+  // Size, place and look (core/ball_check): a candidate either check refuses is not the ball;
+  // without a prediction the others are ranked by its score. Optional; must outlive the finder.
+  const BallCheck* check = nullptr;
 };
 
 class BallFinder {
@@ -105,10 +111,23 @@ class BallFinder {
   int16_t attention_u(int i) const { return attention_u_[i]; }
   int16_t attention_v(int i) const { return attention_v_[i]; }
   int chosen_region() const { return chosen_; }  // index into regions(), -1 if none
-  /// The other balls the last Find could have chosen (regions that pass the shape test and, in
-  /// reject mode, the field test), largest first, at most out.size(); reads no pixels. For a
-  /// choice across both cameras (core/pipeline). Confidence is the region's roundness.
+  /// The other balls the last Find could have chosen (regions that pass the shape test, the
+  /// checks and, in reject mode, the field test), largest first, at most out.size(); reads no
+  /// pixels. For a choice across both cameras (core/pipeline). Confidence is the region's
+  /// roundness.
   size_t Candidates(std::span<BallDetection> out) const;
+  /// The balls of the last Find in the order the finder ranks them: the chosen one first, then
+  /// the other candidates by their check score (by ShapeEvidence without checks), at most
+  /// out.size(). Confidence is the score. Returns the count.
+  size_t Ranked(std::span<BallDetection> out) const;
+  /// A region as the checks see it (core/ball_check).
+  static CandidateShape ShapeOf(const Region& r);
+  /// Why region i of regions() was not a candidate in the last Find.
+  enum class Refusal : uint8_t { kNone, kShapeOrField, kPlace, kLook };
+  Refusal refusal(size_t i) const { return static_cast<Refusal>(refused_[i]); }
+  /// Region i's ranking key in the last Find (the check's score, else ShapeEvidence x field
+  /// context); < 0 when it was no candidate.
+  float rank_key(size_t i) const { return rank_key_[i]; }
   /// While on, a candidate the in-field predicate calls outside is refused, not just disfavoured
   /// (the caller turns it on only while it trusts its field pose).
   void set_reject_outside(bool on) { reject_outside_ = on; }
@@ -131,7 +150,7 @@ class BallFinder {
   uint32_t Attend(const YuyvImage& image, const ColorLut& lut, const Prediction* prediction,
                   FrontEndStats& stats);
   Choice ChooseBall(const YuyvImage& image, const ColorLut& lut, const Prediction* prediction,
-                    FrontEndStats& stats) const;
+                    FrontEndStats& stats);
   void Report(const Region& r, const Choice& choice, const Prediction* prediction,
               BallDetection& out) const;
   void SoftCentroid(const YuyvImage& image, const ColorLut& lut, const Region& r,
@@ -146,6 +165,9 @@ class BallFinder {
   int attention_count_ = 0;
   int chosen_ = -1;
   bool reject_outside_ = false;
+  float rank_key_[kMaxRegions] = {};   // Ranked()'s order; < 0: not a candidate
+  uint8_t refused_[kMaxRegions] = {};  // Refusal
+  float chosen_u_ = 0, chosen_v_ = 0;  // the chosen ball's reported centre
 };
 
 }  // namespace bv

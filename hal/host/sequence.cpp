@@ -169,6 +169,11 @@ bool LoadYuyv(const std::string& path, std::vector<uint8_t>& out, int& width, in
                          width, height, error);
 }
 
+bool DecodePngToRgb(const std::string& name, const uint8_t* data, size_t size,
+                    std::vector<uint8_t>& rgb, int& width, int& height, std::string& error) {
+  return DecodePng(name, data, size, rgb, width, height, error);
+}
+
 bool DecodePngToYuyv(const std::string& name, const uint8_t* data, size_t size,
                      std::vector<uint8_t>& out, int& width, int& height, std::string& error) {
   std::vector<uint8_t> rgb;

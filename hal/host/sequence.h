@@ -42,6 +42,10 @@ bool ParseSequenceIndex(const std::string& text, const std::string& dir, bool ch
 bool DecodePngToYuyv(const std::string& name, const uint8_t* data, size_t size,
                      std::vector<uint8_t>& out, int& width, int& height, std::string& error);
 
+/// Decodes PNG bytes to 8-bit RGB (3 bytes per pixel, any size up to 8192 x 8192).
+bool DecodePngToRgb(const std::string& name, const uint8_t* data, size_t size,
+                    std::vector<uint8_t>& rgb, int& width, int& height, std::string& error);
+
 /// Loads one image as YUYV (2 bytes per pixel). PNG (8-bit gray/RGB/RGBA, any size) is
 /// converted with BT.601 full range, chroma averaged over horizontal pairs; .yuyv must be
 /// expected_width x expected_height x 2 bytes exactly. Errors name the file and the problem.

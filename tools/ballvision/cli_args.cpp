@@ -111,6 +111,12 @@ ArgParser& ArgParser::Positional(const std::string& name, std::string& out, bool
   return *this;
 }
 
+ArgParser& ArgParser::Rest(const std::string& name, std::vector<std::string>& out) {
+  rest_name_ = name;
+  rest_ = &out;
+  return *this;
+}
+
 ArgParser& ArgParser::Required(const std::string& name) {
   if (Option* o = Find(name)) o->required = true;
   return *this;
@@ -144,6 +150,10 @@ int ArgParser::Parse(int argc, char** argv, int first) {
     const std::string a = argv[i];
     if (!LooksLikeOption(a)) {
       if (next_positional >= positionals_.size()) {
+        if (rest_ != nullptr) {
+          rest_->push_back(a);
+          continue;
+        }
         return UsageError("unexpected argument '" + a + "'");
       }
       *positionals_[next_positional++].out = a;

@@ -68,6 +68,8 @@ class ArgParser {
   ArgParser& Custom(const std::string& name, Handler handler);
   /// Positional arguments in order; optional ones after the required ones.
   ArgParser& Positional(const std::string& name, std::string& out, bool required = true);
+  /// Every positional argument after the declared ones goes to `out` (a list of files).
+  ArgParser& Rest(const std::string& name, std::vector<std::string>& out);
   /// Marks an option declared before as one that must be given.
   ArgParser& Required(const std::string& name);
 
@@ -97,6 +99,8 @@ class ArgParser {
   std::string command_, usage_;
   std::vector<Option> options_;
   std::vector<Pos> positionals_;
+  std::string rest_name_;
+  std::vector<std::string>* rest_ = nullptr;
 };
 
 struct SubCommand {

@@ -9,6 +9,8 @@
 #include <vector>
 
 #include "core/color_lut/color_model.h"
+#include "tools/ballvision/box_file.h"
+#include "tools/ballvision/box_teach.h"
 #include "tools/ballvision/cli_args.h"
 #include "tools/ballvision/commands.h"
 #include "tools/ballvision/lut_teach.h"
@@ -20,30 +22,41 @@
 namespace bv::cli {
 namespace {
 
-constexpr char kLutUsage[] =
+#define BV_LUT_SOURCES                                                                          \
+  "sources (repeatable):\n"                                                                     \
+  "  --sim DIR            rendered sequence with truth.csv (ball silhouettes from the truth)\n" \
+  "  --camera omni|persp|both   cameras of the following --sim (default both)\n"                \
+  "  --every N --phase P  use frames with index % N == P (train/test split; default all)\n"     \
+  "  --boxes FILE --images DIR [--split all|even|odd]  annotated boxes (msl format:\n"          \
+  "                       'image class_id class x0 y0 x1 y1'); --split before or after the\n"   \
+  "                       --boxes it applies to, images in name order\n"
+constexpr char kTrainUsage[] =
     "usage: ballvision lut train --out LUT.bin [sources] [--ratio R] [--min-weight W]\n"
     "                           [--gauss D2 [--gauss-veto F]]  (chroma-Gaussian ball model)\n"
     "                           [--shade MIN,MAX]  (brightness factors added per ball sample, "
     "0.55,1.30)\n"
-    "       ballvision lut eval --lut LUT.bin [sources] [--center U,V] [--no-track] [--verbose]\n"
+    "                           [--smooth N]  (densities blurred over +-N chroma cells)\n"
+    "  --teach IMG:U,V[:CLASS[:TOL]]  grow a region from one clicked pixel (CLASS ball|field|\n"
+    "                       line|obstacle, default ball; TOL shade-normalised chroma, "
+    "0.12)\n" BV_LUT_SOURCES;
+constexpr char kEvalUsage[] =
+    "usage: ballvision lut eval --lut LUT.bin [sources] [--center U,V] [--no-track] [--verbose]\n"
     "                           [--regions]  (every traced region with its shape measures)\n"
     "                           [--annotate DIR]  (debug pictures of every evaluated frame)\n"
     "                           [--min-roundness R]  (of a ball region, 0..1)\n"
-    "                           (--lut builtin: the built-in colour model's table)\n"
-    "       ballvision lut teach SEQ --out LUT.bin [--click INDEX:omni|persp:U,V]\n"
+    "                           (--lut builtin: the built-in colour model's "
+    "table)\n" BV_LUT_SOURCES;
+constexpr char kTeachUsage[] =
+    "usage: ballvision lut teach SEQ --out LUT.bin [--click INDEX:omni|persp:U,V]\n"
     "                           [--camera omni|persp|both] [--every N] [--center U,V]\n"
     "                           (fits the ball colour model to the ball across the sequence;\n"
     "                            without --click the ball must be the moving ball-coloured blob)\n"
     "       ballvision lut teach --boxes FILE --images DIR [--split all|even|odd] --out LUT.bin\n"
-    "       ballvision lut show LUT.bin\n"
-    "sources (repeatable):\n"
-    "  --sim DIR            rendered sequence with truth.csv (ball silhouettes from the truth)\n"
-    "  --camera omni|persp|both   cameras of the following --sim (default both)\n"
-    "  --every N --phase P  use frames with index % N == P (train/test split; default all)\n"
-    "  --boxes FILE --images DIR [--split all|even|odd]  annotated boxes (msl format:\n"
-    "                       'image class_id class x0 y0 x1 y1'); split by image order\n"
-    "  --teach IMG:U,V[:CLASS[:TOL]]  grow a region from one clicked pixel (CLASS ball|field|\n"
-    "                       line|obstacle, default ball; TOL shade-normalised chroma, 0.12)\n";
+    "                           (one camera's stills: the ball's colours against the rest, and\n"
+    "                            the camera's floor-ball profile, into one teach file)\n";
+constexpr char kShowUsage[] = "usage: ballvision lut show LUT.bin\n";
+#undef BV_LUT_SOURCES
+const std::string kLutUsage = std::string(kTrainUsage) + kEvalUsage + kTeachUsage + kShowUsage;
 
 bool ReadFile(const std::string& path, std::vector<uint8_t>& out) {
   std::ifstream in(path, std::ios::binary);
@@ -73,6 +86,7 @@ struct SimSource {
 };
 struct BoxSource {
   std::string file, images, split = "all";
+  bool split_given = false;  // a --split after this --boxes named its split
 };
 struct Teach {
   std::string image;
@@ -134,6 +148,7 @@ int ParseArgs(int argc, char** argv, const std::string& command, Args& a) {
   std::string split = "all";
   double cu = 314.2, cv = 244.1;  // reference rig mirror circle (render/README.md)
   std::string pending;            // a source modifier no source has used yet
+  bool last_was_boxes = false;    // the last source given was a --boxes
   const auto modifier = [&pending](const char* name, ArgParser::Handler check) {
     return [name, check, &pending](const std::string& v, std::string& error) {
       if (!check(v, error)) return false;
@@ -141,7 +156,7 @@ int ParseArgs(int argc, char** argv, const std::string& command, Args& a) {
       return true;
     };
   };
-  ArgParser p(command, kLutUsage);
+  ArgParser p(command, command == "ballvision lut train" ? kTrainUsage : kEvalUsage);
   p.FlagAction("--regions", [&a] { a.setup.dump_regions = true; })
       .FlagAction("--verbose", [&a] { a.verbose = a.setup.verbose = true; })
       .FlagAction("--no-track", [&a] { a.setup.track = false; })
@@ -165,25 +180,35 @@ int ParseArgs(int argc, char** argv, const std::string& command, Args& a) {
                                   [&](const std::string& v, std::string& error) {
                                     return ArgIntAs("--phase", v, 0, 999999, phase, error);
                                   }))
-      .Custom("--split", modifier("--split",
-                                  [&](const std::string& v, std::string& error) {
-                                    if (v == "all" || v == "even" || v == "odd") {
-                                      split = v;
-                                      return true;
-                                    }
-                                    error = "--split: got '" + v + "', expected all, even or odd";
-                                    return false;
-                                  }))
+      .Custom("--split",
+              [&](const std::string& v, std::string& error) {
+                if (v != "all" && v != "even" && v != "odd") {
+                  error = "--split: got '" + v + "', expected all, even or odd";
+                  return false;
+                }
+                split = v;
+                // After a --boxes (and before the next source) it is that source's split, as
+                // before it: `--boxes F --images D --split odd` = `--split odd --boxes F ...`.
+                if (!a.boxes.empty() && !a.boxes.back().split_given && last_was_boxes) {
+                  a.boxes.back().split = v;
+                  a.boxes.back().split_given = true;
+                  return true;
+                }
+                pending = "--split";
+                return true;
+              })
       .Custom("--sim",
               [&](const std::string& v, std::string&) {
                 a.sims.push_back({v, omni, persp, every, phase});
                 pending.clear();
+                last_was_boxes = false;
                 return true;
               })
       .Custom("--boxes",
               [&](const std::string& v, std::string&) {
-                a.boxes.push_back({v, "", split});
+                a.boxes.push_back({v, "", split, pending == "--split"});
                 pending.clear();
+                last_was_boxes = true;
                 return true;
               })
       .Custom("--images",
@@ -193,7 +218,6 @@ int ParseArgs(int argc, char** argv, const std::string& command, Args& a) {
                   return false;
                 }
                 a.boxes.back().images = v;
-                a.boxes.back().split = split;
                 return true;
               })
       .Number("--ratio", 0, 1e6, a.train.ratio)
@@ -208,6 +232,7 @@ int ParseArgs(int argc, char** argv, const std::string& command, Args& a) {
       .Number("--gauss", 0, 1e6, a.train.gauss_d2)
       .Number("--gauss-veto", 0, 1e6, a.train.gauss_veto)
       .Number("--min-weight", 0, 1e9, a.train.min_ball_weight)
+      .Int("--smooth", 0, 8, a.train.smooth)
       .Number("--min-roundness", 0, 1, a.setup.finder.min_roundness)
       .Custom("--center",
               [&](const std::string& v, std::string& error) {
@@ -247,7 +272,7 @@ bool SelectBoxes(const BoxSource& b, std::vector<lut::BoxImage>& out) {
 
 int Train(const Args& a) {
   if (a.out.empty()) {
-    std::fprintf(stderr, "ballvision lut train: missing --out\n\n%s", kLutUsage);
+    std::fprintf(stderr, "ballvision lut train: missing --out\n\n%s", kTrainUsage);
     return 2;
   }
   if (a.sims.empty() && a.boxes.empty() && a.teach.empty()) {
@@ -335,7 +360,7 @@ int Train(const Args& a) {
 int Eval(const Args& a) {
   static ColorLut lut;
   if (a.lut.empty()) {
-    std::fprintf(stderr, "ballvision lut eval: missing --lut\n\n%s", kLutUsage);
+    std::fprintf(stderr, "ballvision lut eval: missing --lut\n\n%s", kEvalUsage);
     return 2;
   }
   if (a.lut == "builtin") {
@@ -439,7 +464,7 @@ bool ParseClick(const std::string& click, lut::TeachOptions& opt, std::string& e
 // Returns -1 to go on, else the exit code.
 int ParseTeachArgs(int argc, char** argv, TeachArgs& t) {
   std::string click, camera = "both";
-  ArgParser p("ballvision lut teach", kLutUsage);
+  ArgParser p("ballvision lut teach", kTeachUsage);
   p.Positional("SEQ", t.seq, /*required=*/false)
       .Text("--boxes", t.boxes)
       .Text("--images", t.images)
@@ -470,14 +495,61 @@ int ParseTeachArgs(int argc, char** argv, TeachArgs& t) {
   return -1;
 }
 
-// From the annotated stills when given, else from the sequence.
-bool TeachModel(const TeachArgs& t, const std::vector<lut::BoxImage>& stills, lut::TeachReport& r,
-                std::string& err) {
-  if (!t.boxes.empty()) return lut::TeachBoxes(stills, t.opt.start, r, err);
+bool TeachModel(const TeachArgs& t, lut::TeachReport& r, std::string& err) {
   lut::FinderSetup setup;
   setup.omni = ReferenceOmniScanConfig(static_cast<float>(t.cu), static_cast<float>(t.cv));
   setup.persp = ReferencePerspScanConfig();
   return lut::TeachSequence(t.seq, setup, t.opt, r, err);
+}
+
+// `lut teach --boxes`: the table and the floor-ball profile into one teach file.
+int TeachBoxesCmd(const TeachArgs& t) {
+  std::vector<AnnotatedImage> all;
+  std::string err;
+  if (!LoadAnnotations(t.boxes, t.images, all, err)) {
+    std::fprintf(stderr, "ballvision lut teach: %s; %s not written\n", err.c_str(), t.out.c_str());
+    return 1;
+  }
+  std::sort(all.begin(), all.end(),
+            [](const AnnotatedImage& x, const AnnotatedImage& y) { return x.name < y.name; });
+  const std::vector<AnnotatedImage> images = SplitImages(all, t.split);
+  BoxTeach taught;
+  if (!TeachFromBoxes(t.boxes, images, BoxTeachOptions{}, taught, err)) {
+    std::fprintf(stderr, "ballvision lut teach: %s; %s not written\n", err.c_str(), t.out.c_str());
+    return 1;
+  }
+  if (InterruptSignal()) {
+    ReportInterrupt("ballvision lut teach");
+    std::fprintf(stderr, "ballvision lut teach: a partly taught table is not written\n");
+    return 130;
+  }
+  std::vector<uint8_t> blob(kColorLutBlobBytes);
+  const Result<size_t> n = SerializeLut(*taught.table, blob, &taught.profile);
+  if (!n.ok() ||
+      !WriteFileAtomic(
+          t.out, std::string_view(reinterpret_cast<const char*>(blob.data()), n.ok() ? *n : 0),
+          err)) {
+    std::fprintf(stderr, "ballvision lut teach: %s\n", n.ok() ? err.c_str() : n.status().message());
+    return 1;
+  }
+  std::printf(
+      "taught from %zu images (%s), %d with a ball, %dx%d: %d ball cells from %.0f ball / %.0f "
+      "other samples\n"
+      "check on %zu background samples: %.3f %% of field and line pixels taken, %.3f %% of all\n",
+      images.size(), t.split.c_str(), taught.ball_images, taught.width, taught.height,
+      taught.ball_cells, taught.ball_samples, taught.other_samples, taught.background,
+      100.0 * taught.field_taken, 100.0 * taught.background_taken);
+  if (taught.profile.valid) {
+    std::printf(
+        "floor-ball profile from %u boxes: horizon at row %.1f, radius %.4f px per row "
+        "below it (%+.6f per row^2), scatter %.0f %%\n",
+        taught.profile.samples, taught.profile.horizon_v_px, taught.profile.slope,
+        taught.profile.curve, 100.0 * taught.profile.spread);
+  } else {
+    std::printf("no floor-ball profile: %s\n", taught.profile_note.c_str());
+  }
+  std::printf("wrote %s: id 0x%08x\n", t.out.c_str(), taught.table->Id());
+  return 0;
 }
 
 bool WriteTaughtLut(const BallColorModel& model, const std::string& out, ColorLut& lut,
@@ -520,10 +592,9 @@ int TeachCmd(int argc, char** argv) {
     return 1;
   }
   InstallInterruptHandlers();
-  std::vector<lut::BoxImage> stills;
-  if (!t.boxes.empty() && !SelectBoxes({t.boxes, t.images, t.split}, stills)) return 1;
+  if (!t.boxes.empty()) return TeachBoxesCmd(t);
   lut::TeachReport r;
-  if (!TeachModel(t, stills, r, err)) {
+  if (!TeachModel(t, r, err)) {
     std::fprintf(stderr, "ballvision lut teach: %s; %s not written\n", err.c_str(), t.out.c_str());
     return 1;
   }
@@ -552,7 +623,7 @@ int TeachCmd(int argc, char** argv) {
 int CmdLut(int argc, char** argv) {
   const auto show = [](int ac, char** av) {
     std::string path;
-    ArgParser p("ballvision lut show", kLutUsage);
+    ArgParser p("ballvision lut show", kShowUsage);
     p.Positional("LUT", path);
     if (const int rc = p.Parse(ac, av); rc >= 0) return rc;
     return Show(path);

@@ -15,5 +15,7 @@ int CmdEvalField(int argc, char** argv);  // cmd_field.cpp: pose, lines, obstacl
 int CmdCapture(int argc, char** argv);    // cmd_capture.cpp: frames over the link
 int CmdReadback(int argc, char** argv);   // cmd_readback.cpp: blob in use over the link
 int CmdSync(int argc, char** argv);       // cmd_sync.cpp: clock sync with the coprocessor
+int CmdDetect(int argc, char** argv);      // cmd_detect.cpp: the front end on still images
+int CmdDetectEval(int argc, char** argv);  // cmd_detect.cpp: real-image figures
 
 }  // namespace bv::cli

@@ -16,27 +16,18 @@
 #include "hal/host/sequence.h"
 #include "tools/ballvision/annotate_frontend.h"
 #include "tools/ballvision/signals.h"
+#include "tools/ballvision/still_image.h"
 #include "tools/ballvision/truth_csv.h"
 
 namespace bv::lut {
 
 bool LoadImage(const std::string& path, Image& out, std::string& error) {
-  const bool png = path.size() > 4 && path.substr(path.size() - 4) == ".png";
-  if (png || (path.size() > 5 && path.substr(path.size() - 5) == ".yuyv")) {
+  if (path.size() > 5 && path.substr(path.size() - 5) == ".yuyv") {
     return host::LoadYuyv(path, out.yuyv, out.width, out.height, error);
   }
-  cv::Mat bgr = cv::imread(path, cv::IMREAD_COLOR);
-  if (bgr.empty()) {
-    error = path + ": cannot read image";
-    return false;
-  }
-  if (bgr.cols & 1) bgr = bgr.colRange(0, bgr.cols - 1).clone();
-  cv::Mat rgb;
-  cv::cvtColor(bgr, rgb, cv::COLOR_BGR2RGB);
-  out.width = rgb.cols;
-  out.height = rgb.rows;
-  out.yuyv.assign(static_cast<size_t>(out.width) * out.height * 2, 0);
-  host::RgbToYuyv(rgb.data, out.width, out.height, out.yuyv.data());
+  cli::Still still;
+  if (!cli::LoadStill(path, still, error)) return false;
+  out = std::move(still.image);
   return true;
 }
 
@@ -159,14 +150,39 @@ int Trainer::Teach(const Image& img, int u0, int v0, ColorClass cls, float toler
   return n;
 }
 
+namespace {
+// Box blur of a Y4/U6/V6 cell grid: +-ry cells in Y, +-r in U and V.
+std::vector<float> BlurCells(const std::vector<float>& in, int ry, int r) {
+  constexpr int ny = 16, nu = 64, nv = 64;
+  std::vector<float> a = in, b(in.size());
+  auto pass = [&](int stride, int n, int rad) {
+    for (uint32_t i = 0; i < ColorLut::kEntries; ++i) {
+      const int k = static_cast<int>(i / stride) % n;
+      float sum = 0;
+      for (int d = -rad; d <= rad; ++d) {
+        if (k + d >= 0 && k + d < n) sum += a[i + d * stride];
+      }
+      b[i] = sum;
+    }
+    a.swap(b);
+  };
+  pass(nu * nv, ny, ry);
+  pass(nv, nu, r);
+  pass(1, nv, r);
+  return a;
+}
+}  // namespace
+
 ColorLut Trainer::Build() const {
   ColorLut lut;
   const double bt = std::max(1.0, ball_total_), ot = std::max(1.0, other_total_);
+  const std::vector<float> ball = opt_.smooth > 0 ? BlurCells(ball_, 1, opt_.smooth) : ball_;
+  const std::vector<float> other = opt_.smooth > 0 ? BlurCells(other_, 1, opt_.smooth) : other_;
   for (uint32_t i = 0; i < ColorLut::kEntries; ++i) {
     uint8_t y, u, v;
     ColorLut::CellCenter(i, y, u, v);
     lut.Set(i, BackgroundClass(y, u, v));
-    if (ball_[i] >= opt_.min_ball_weight && ball_[i] / bt > opt_.ratio * other_[i] / ot) {
+    if (ball[i] >= opt_.min_ball_weight && ball[i] / bt > opt_.ratio * other[i] / ot) {
       lut.Set(i, ColorClass::kBall);
     }
   }

@@ -26,8 +26,8 @@ struct Image {
   YuyvImage view() const { return MakeYuyvImage(yuyv.data(), width, height); }
 };
 
-/// PNG through hal/host (BT.601 full range, as the pipeline loads), other formats via OpenCV
-/// (odd widths are cropped by one column). False with `error` set on failure.
+/// JPEG or PNG through cli::LoadStill (strict decode, BT.601 full range as the pipeline loads;
+/// an odd width padded by its last column), or a raw 640x480 .yuyv. False with `error` set.
 bool LoadImage(const std::string& path, Image& out, std::string& error);
 
 struct TrainOptions {
@@ -42,6 +42,9 @@ struct TrainOptions {
   // `gauss_veto` of the other samples fall in it. 0 = off. Generalises across hue drift.
   float gauss_d2 = 0.0f;
   float gauss_veto = 5e-5f;
+  // Both densities box-blurred over +-smooth cells in U and V (+-1 in Y when > 0) before the
+  // ratio test: a cell the taught images never showed takes its neighbours' verdict.
+  int smooth = 0;
 };
 
 class Trainer {

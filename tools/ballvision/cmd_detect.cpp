@@ -1,0 +1,592 @@
+// ballvision detect: the device's front end on still images; ballvision detect-eval: the
+// real-image figures (per set and pooled) for teaching from half a set, from its first five
+// ball images, and for the built-in table.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iterator>
+#include <map>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include <sys/stat.h>
+
+#include "core/ball_check/ball_check.h"
+#include "core/color_lut/color_model.h"
+#include "tools/ballvision/annotate_frontend.h"
+#include "tools/ballvision/box_file.h"
+#include "tools/ballvision/box_teach.h"
+#include "tools/ballvision/calib_io.h"
+#include "tools/ballvision/cli_args.h"
+#include "tools/ballvision/commands.h"
+#include "tools/ballvision/run_common.h"
+#include "tools/ballvision/safe_write.h"
+#include "tools/ballvision/signals.h"
+#include "tools/ballvision/still_detect.h"
+#include "tools/ballvision/still_image.h"
+
+namespace bv::cli {
+namespace {
+
+constexpr char kDetectUsage[] =
+    "usage: ballvision detect --lut FILE|builtin [--ball red|orange|yellow]\n"
+    "                         [--calib CALIB --camera persp] [--classifier FILE|off]\n"
+    "                         --json OUT [--annotate DIR] [--candidates CSV] [--max-balls N]\n"
+    "                         IMAGE|DIR...\n"
+    "  Runs the device's front end (scan table for the image's size, colour table, regions,\n"
+    "  size-and-place and appearance checks, ball choice) on JPEG or PNG stills up to 1024x1024.\n"
+    "  --lut FILE     a table or teach file (`lut teach --boxes` adds the camera's floor-ball\n"
+    "                 profile, used for size and place when no --calib is given)\n"
+    "  --lut builtin  the built-in model of --ball (default red)\n"
+    "  --calib CALIB --camera persp   size and place from the calibrated persp camera\n"
+    "  --classifier   the appearance classifier's weights blob; off: no appearance check\n"
+    "  --json OUT     {\"images\": [{\"file\", \"width\", \"height\", \"balls\": [{\"u\", \"v\",\n"
+    "                 \"r\", \"score\"}]}]}, the chosen ball first, at most --max-balls (4)\n"
+    "  --annotate DIR one picture per image (scan pixels, regions, the choice)\n"
+    "  --candidates CSV   every candidate's features and verdicts (classifier training)\n";
+
+constexpr char kEvalUsage[] =
+    "usage: ballvision detect-eval --boxes FILE --images DIR [--protocol half|first5|builtin|all]\n"
+    "                              [--ball red|orange|yellow] [--classifier FILE|off]\n"
+    "                              [--sets PREFIX[,PREFIX...]] [--verbose] [--json OUT]\n"
+    "  Real-image figures per set (images sharing the name up to the second '_') and pooled:\n"
+    "  half     per set, taught (lut teach --boxes) from the even images, tested on the odd ones,\n"
+    "           and the other way round\n"
+    "  first5   taught from the set's first five images with a ball, tested on the rest\n"
+    "  builtin  the built-in table of --ball (default yellow), no teaching, every image\n"
+    "  Scoring: the first ball is found when it lies inside a ball box grown by 15 %; an image\n"
+    "  counts for recall when it has a ball box at least 10 px wide whose sides are at least\n"
+    "  half as long as each other (not mostly hidden or cut); a first ball matching no box is\n"
+    "  false on any image. Centre error: first ball to the matched box's centre.\n";
+
+bool ReadFile(const std::string& path, std::vector<uint8_t>& out, std::string& error) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) {
+    error = path + ": cannot read";
+    return false;
+  }
+  out.assign(std::istreambuf_iterator<char>(in), {});
+  return true;
+}
+
+// --lut FILE|builtin with --ball: the table, and the teach file's profile if it has one.
+bool LoadTable(const std::string& lut_arg, const std::string& ball, ColorLut& lut,
+               FloorBallProfile& profile, std::string& error) {
+  profile = FloorBallProfile{};
+  if (lut_arg == "builtin") {
+    BallName name = BallName::kRed;
+    if (!ball.empty() && !ParseBallName(ball.c_str(), name)) {
+      error = "--ball: got '" + ball + "', expected red, orange or yellow";
+      return false;
+    }
+    if (!BuildLut(BuiltInBallModel(name), lut).ok()) {
+      error = "built-in model of the " + ball + " ball is not valid";
+      return false;
+    }
+    return true;
+  }
+  std::vector<uint8_t> blob;
+  if (!ReadFile(lut_arg, blob, error)) return false;
+  const Status st = ParseLut(blob, lut, &profile);
+  if (!st.ok()) {
+    error = lut_arg + ": " + st.message();
+    return false;
+  }
+  return true;
+}
+
+bool LoadClassifier(const std::string& arg, BallClassifier& c, std::string& error) {
+  c.Clear();
+  if (arg.empty() || arg == "off") return true;
+  std::vector<uint8_t> blob;
+  if (!ReadFile(arg, blob, error)) return false;
+  const Status st = c.Parse(blob);
+  if (!st.ok()) {
+    error = arg + ": " + st.message();
+    return false;
+  }
+  return true;
+}
+
+BallFinderConfig StillFinderConfig() {
+  BallFinderConfig f;
+  f.fit_circles = true;  // persp stills: a ball cut by the border or merged with its surroundings
+  return f;
+}
+
+// ---- detect ----
+
+struct DetectArgs {
+  std::string lut, ball, calib, camera = "persp", classifier, json, annotate, candidates;
+  int max_balls = 4;
+  std::vector<std::string> inputs;
+};
+
+void CandidateHeader(SafeOutput& out) {
+  out << "file,u,v,r,area,chosen,refusal,place,height_m,floor_ratio,logit,score";
+  for (int i = 0; i < kBallFeatureCount; ++i) out << ",f" << i;
+  out << "\n";
+}
+
+void CandidateRows(SafeOutput& out, const std::string& file, const StillResult& r) {
+  static const char* kRefusal[] = {"none", "shape", "place", "look"};
+  for (const StillCandidate& c : r.candidates) {
+    char buf[256];
+    std::snprintf(buf, sizeof buf, "%s,%.2f,%.2f,%.2f,%.1f,%d,%s,%d,%.3f,%.3f,%.4f,%.4f",
+                  file.c_str(), c.shape.u_px, c.shape.v_px, c.shape.radius_px, c.shape.area_px,
+                  c.chosen ? 1 : 0, kRefusal[static_cast<int>(c.refusal)],
+                  static_cast<int>(c.verdict.place), c.verdict.where.height_m,
+                  c.verdict.where.floor_ratio, c.verdict.logit, c.verdict.score);
+    out << buf;
+    for (float f : c.features.f) {
+      std::snprintf(buf, sizeof buf, ",%.5g", f);
+      out << buf;
+    }
+    out << "\n";
+  }
+}
+
+int Detect(int argc, char** argv) {
+  DetectArgs a;
+  ArgParser p("ballvision detect", kDetectUsage);
+  p.Text("--lut", a.lut)
+      .Text("--ball", a.ball)
+      .Text("--calib", a.calib)
+      .Text("--camera", a.camera)
+      .Text("--classifier", a.classifier)
+      .Text("--json", a.json)
+      .Text("--annotate", a.annotate)
+      .Text("--candidates", a.candidates)
+      .Int("--max-balls", 1, 16, a.max_balls)
+      .Rest("IMAGE", a.inputs)
+      .Required("--lut")
+      .Required("--json");
+  if (const int rc = p.Parse(argc, argv); rc >= 0) return rc;
+  if (a.inputs.empty()) return p.UsageError("no IMAGE or DIR given");
+  if (a.camera != "persp") {
+    return p.UsageError("--camera: got '" + a.camera +
+                        "'; stills are detected as the persp camera sees them (persp)");
+  }
+  if (!a.ball.empty() && a.lut != "builtin") {
+    return p.UsageError("--ball chooses a built-in model: it needs --lut builtin");
+  }
+  std::string error;
+  if (!CheckOutputPath(a.json, error) ||
+      (!a.candidates.empty() && !CheckOutputPath(a.candidates, error))) {
+    std::fprintf(stderr, "ballvision detect: %s\n", error.c_str());
+    return 1;
+  }
+  static ColorLut lut;
+  FloorBallProfile profile;
+  BallClassifier classifier;
+  RigCalibration cal;
+  if (!LoadTable(a.lut, a.ball, lut, profile, error) ||
+      !LoadClassifier(a.classifier, classifier, error) ||
+      (!a.calib.empty() && !LoadCalibrationFile(a.calib, cal, error))) {
+    std::fprintf(stderr, "ballvision detect: %s\n", error.c_str());
+    return 1;
+  }
+  if (!a.calib.empty() && !cal.persp.valid) {
+    std::fprintf(stderr, "ballvision detect: %s has no persp camera\n", a.calib.c_str());
+    return 1;
+  }
+  std::vector<std::string> files;
+  for (const std::string& in : a.inputs) {
+    std::vector<std::string> listed;
+    struct stat st;
+    if (stat(in.c_str(), &st) == 0 && S_ISDIR(st.st_mode)) {
+      if (!ListStills(in, {}, listed, error)) {
+        std::fprintf(stderr, "ballvision detect: %s\n", error.c_str());
+        return 1;
+      }
+      if (listed.empty()) {
+        std::fprintf(stderr, "ballvision detect: %s: no JPEG or PNG image in it\n", in.c_str());
+        return 1;
+      }
+      files.insert(files.end(), listed.begin(), listed.end());
+    } else {
+      files.push_back(in);
+    }
+  }
+  DetectSetup setup;
+  setup.lut = &lut;
+  setup.profile = profile;
+  setup.persp = a.calib.empty() ? nullptr : &cal.persp;
+  setup.classifier = &classifier;
+  setup.finder = StillFinderConfig();
+  setup.max_balls = a.max_balls;
+  StillDetector detector;
+  if (!detector.Init(setup, error)) {
+    std::fprintf(stderr, "ballvision detect: %s\n", error.c_str());
+    return 1;
+  }
+  SafeOutput cand;
+  if (!a.candidates.empty()) {
+    if (!cand.Open(a.candidates, error)) {
+      std::fprintf(stderr, "ballvision detect: %s\n", error.c_str());
+      return 1;
+    }
+    CandidateHeader(cand);
+  }
+  InstallInterruptHandlers();
+  nlohmann::json images = nlohmann::json::array();
+  int with_ball = 0;
+  for (const std::string& f : files) {
+    if (InterruptSignal()) {
+      ReportInterrupt("ballvision detect");
+      std::fprintf(stderr, "ballvision detect: %s not written\n", a.json.c_str());
+      return InterruptExitCode();
+    }
+    Still still;
+    StillResult r;
+    if (!LoadStill(f, still, error) ||
+        !detector.Detect(still.image, r, !a.candidates.empty(), error)) {
+      std::fprintf(stderr, "ballvision detect: %s\n", error.c_str());
+      std::fprintf(stderr, "ballvision detect: %s not written\n", a.json.c_str());
+      return 1;
+    }
+    nlohmann::json balls = nlohmann::json::array();
+    for (const StillBall& b : r.balls) {
+      balls.push_back({{"u", std::round(b.u_px * 100) / 100},
+                       {"v", std::round(b.v_px * 100) / 100},
+                       {"r", std::round(b.radius_px * 100) / 100},
+                       {"score", std::round(b.score * 1e4) / 1e4}});
+    }
+    images.push_back(
+        {{"file", f}, {"width", still.width}, {"height", still.height}, {"balls", balls}});
+    with_ball += !r.balls.empty();
+    if (r.balls.empty()) {
+      std::printf("%s: %dx%d  no ball  (candidates %u, refused by place %u, by look %u)\n",
+                  f.c_str(), still.width, still.height, r.stats.candidates, r.stats.refused_place,
+                  r.stats.refused_look);
+    } else {
+      std::printf(
+          "%s: %dx%d  ball (%.1f, %.1f) r %.1f score %.3f  (+%zu more; refused by place "
+          "%u, by look %u)\n",
+          f.c_str(), still.width, still.height, r.balls[0].u_px, r.balls[0].v_px,
+          r.balls[0].radius_px, r.balls[0].score, r.balls.size() - 1, r.stats.refused_place,
+          r.stats.refused_look);
+    }
+    if (!a.annotate.empty()) {
+      BallDetection det;
+      if (!r.balls.empty()) {
+        det.found = true;
+        det.u_px = r.balls[0].u_px;
+        det.v_px = r.balls[0].v_px;
+        det.radius_px = r.balls[0].radius_px;
+      }
+      const std::string base = f.substr(f.find_last_of('/') + 1);
+      if (!AnnotateFrontEnd(still.image.view(), lut, detector.scan(), detector.finder(), nullptr,
+                            det, a.annotate + "/" + base + ".png", &error, 1)) {
+        std::fprintf(stderr, "ballvision detect: %s\n", error.c_str());
+        return 1;
+      }
+    }
+    if (cand.is_open()) CandidateRows(cand, f, r);
+  }
+  const nlohmann::json doc = {{"images", images}};
+  if (!WriteFileAtomic(a.json, doc.dump(1) + "\n", error) ||
+      (cand.is_open() && !cand.Commit(error))) {
+    std::fprintf(stderr, "ballvision detect: %s\n", error.c_str());
+    return 1;
+  }
+  std::printf("%zu images, a ball in %d; geometry: %s; classifier: %s; wrote %s\n", files.size(),
+              with_ball, profile.valid || !a.calib.empty() ? "yes" : "none",
+              classifier.loaded() ? "on" : "off", a.json.c_str());
+  return 0;
+}
+
+// ---- detect-eval ----
+
+struct Score {
+  int images = 0, countable = 0, found = 0, false_images = 0;
+  std::vector<float> centre_err;
+  void Add(const Score& o) {
+    images += o.images, countable += o.countable, found += o.found;
+    false_images += o.false_images;
+    centre_err.insert(centre_err.end(), o.centre_err.begin(), o.centre_err.end());
+  }
+};
+
+bool Countable(const AnnotatedBox& b) {
+  const float w = b.u1 - b.u0, h = b.v1 - b.v0;
+  return b.class_id == 0 && std::max(w, h) >= 10.0f && std::min(w, h) >= 0.5f * std::max(w, h);
+}
+
+// The first ball against the image's boxes.
+void ScoreImage(const AnnotatedImage& im, const StillResult& r, Score& s, bool verbose) {
+  ++s.images;
+  const bool countable = std::any_of(im.boxes.begin(), im.boxes.end(), Countable);
+  s.countable += countable;
+  if (r.balls.empty()) {
+    if (verbose && countable) std::printf("    %s: MISS (nothing)\n", im.name.c_str());
+    return;
+  }
+  const StillBall& b = r.balls[0];
+  float best = -1;
+  for (const AnnotatedBox& x : im.boxes) {
+    if (x.class_id != 0) continue;
+    const float gw = 0.075f * (x.u1 - x.u0), gh = 0.075f * (x.v1 - x.v0);
+    if (b.u_px >= x.u0 - gw && b.u_px <= x.u1 + gw && b.v_px >= x.v0 - gh && b.v_px <= x.v1 + gh) {
+      const float e = std::hypot(b.u_px - 0.5f * (x.u0 + x.u1), b.v_px - 0.5f * (x.v0 + x.v1));
+      if (best < 0 || e < best) best = e;
+    }
+  }
+  if (best < 0) {
+    ++s.false_images;
+    if (verbose) {
+      std::printf("    %s: FALSE at (%.0f, %.0f) r %.1f score %.3f%s\n", im.name.c_str(), b.u_px,
+                  b.v_px, b.radius_px, b.score, countable ? " (ball missed)" : "");
+    }
+    return;
+  }
+  if (countable) {
+    ++s.found;
+    s.centre_err.push_back(best);
+  }
+}
+
+float Percentile(std::vector<float> v, float q) {
+  if (v.empty()) return 0.0f;
+  std::sort(v.begin(), v.end());
+  return v[std::min(v.size() - 1, static_cast<size_t>(q * static_cast<float>(v.size())))];
+}
+
+void PrintScore(const std::string& label, const Score& s) {
+  std::printf(
+      "  %-24s images %4d  found %4d / %4d (%5.1f %%)  false %3d (%4.1f %%)  centre err "
+      "median %.1f p90 %.1f px\n",
+      label.c_str(), s.images, s.found, s.countable,
+      s.countable ? 100.0 * s.found / s.countable : 0.0, s.false_images,
+      s.images ? 100.0 * s.false_images / s.images : 0.0, Percentile(s.centre_err, 0.5f),
+      Percentile(s.centre_err, 0.9f));
+}
+
+nlohmann::json ScoreJson(const Score& s) {
+  return {{"images", s.images},
+          {"countable", s.countable},
+          {"found", s.found},
+          {"false_images", s.false_images},
+          {"recall", s.countable ? static_cast<double>(s.found) / s.countable : 0.0},
+          {"false_rate", s.images ? static_cast<double>(s.false_images) / s.images : 0.0},
+          {"centre_err_median_px", Percentile(s.centre_err, 0.5f)},
+          {"centre_err_p90_px", Percentile(s.centre_err, 0.9f)}};
+}
+
+// Which ball box (index in the image's boxes) a point lies in, grown by 15 %; -1: none.
+int MatchBox(const AnnotatedImage& im, float u, float v, float* centre_err = nullptr) {
+  int best = -1;
+  float best_e = 0;
+  for (size_t i = 0; i < im.boxes.size(); ++i) {
+    const AnnotatedBox& x = im.boxes[i];
+    if (x.class_id != 0) continue;
+    const float gw = 0.075f * (x.u1 - x.u0), gh = 0.075f * (x.v1 - x.v0);
+    if (u < x.u0 - gw || u > x.u1 + gw || v < x.v0 - gh || v > x.v1 + gh) continue;
+    const float e = std::hypot(u - 0.5f * (x.u0 + x.u1), v - 0.5f * (x.v0 + x.v1));
+    if (best < 0 || e < best_e) {
+      best = static_cast<int>(i);
+      best_e = e;
+    }
+  }
+  if (centre_err != nullptr) *centre_err = best_e;
+  return best;
+}
+
+struct EvalContext {
+  std::string boxes;
+  const BallClassifier* classifier = nullptr;
+  bool verbose = false;
+  SafeOutput* candidates = nullptr;  // --candidates: every candidate of every test image
+  std::string label;                 // protocol and split, for the candidate rows
+};
+
+// Detects on `test` with `lut` (and `profile`), scoring into `s`.
+bool RunTest(const EvalContext& ctx, const ColorLut& lut, const FloorBallProfile& profile,
+             const std::vector<AnnotatedImage>& test, Score& s, std::string& error) {
+  DetectSetup setup;
+  setup.lut = &lut;
+  setup.profile = profile;
+  setup.classifier = ctx.classifier;
+  setup.finder = StillFinderConfig();
+  StillDetector detector;
+  if (!detector.Init(setup, error)) return false;
+  for (const AnnotatedImage& im : test) {
+    Still still;
+    StillResult r;
+    if (!LoadStill(im.path, still, error) ||
+        !CheckBoxesInside(ctx.boxes, im, still.width, still.height, error) ||
+        !detector.Detect(still.image, r, ctx.candidates != nullptr, error)) {
+      return false;
+    }
+    ScoreImage(im, r, s, ctx.verbose);
+    if (ctx.candidates != nullptr) {
+      const bool countable = std::any_of(im.boxes.begin(), im.boxes.end(), Countable);
+      for (const StillCandidate& c : r.candidates) {
+        const int box = MatchBox(im, c.shape.u_px, c.shape.v_px);
+        char buf[160];
+        std::snprintf(buf, sizeof buf, "%s,%s,%d,%d,", ctx.label.c_str(), im.name.c_str(),
+                      countable ? 1 : 0, box);
+        *ctx.candidates << buf;
+        StillResult one;
+        one.candidates.push_back(c);
+        CandidateRows(*ctx.candidates, "", one);
+      }
+    }
+  }
+  return true;
+}
+
+// Teaches from `train` (lut teach --boxes); on a refusal every test image is scored with no ball
+// (said).
+bool TeachAndTest(const EvalContext& ctx, const std::string& label,
+                  const std::vector<AnnotatedImage>& train, const std::vector<AnnotatedImage>& test,
+                  Score& s, std::string& error) {
+  BoxTeach t;
+  std::string why;
+  if (!TeachFromBoxes(ctx.boxes, train, BoxTeachOptions{}, t, why)) {
+    std::printf("    %s: teach refused (%s): every test image scored without a ball\n",
+                label.c_str(), why.c_str());
+    for (const AnnotatedImage& im : test) ScoreImage(im, StillResult{}, s, false);
+    return true;
+  }
+  if (ctx.verbose) {
+    std::printf("    %s: %d ball cells, %.3f %% of the field taken; profile %s\n", label.c_str(),
+                t.ball_cells, 100.0 * t.field_taken,
+                t.profile.valid ? "learned" : t.profile_note.c_str());
+  }
+  return RunTest(ctx, *t.table, t.profile, test, s, error);
+}
+
+int DetectEval(int argc, char** argv) {
+  std::string boxes, images_dir, protocol = "all", ball = "yellow", classifier_arg, sets_arg, json;
+  std::string candidates_path;
+  bool verbose = false;
+  ArgParser p("ballvision detect-eval", kEvalUsage);
+  p.Text("--boxes", boxes)
+      .Text("--images", images_dir)
+      .Text("--protocol", protocol)
+      .Text("--ball", ball)
+      .Text("--classifier", classifier_arg)
+      .Text("--sets", sets_arg)
+      .Text("--json", json)
+      .Text("--candidates", candidates_path)
+      .Flag("--verbose", verbose)
+      .Required("--boxes")
+      .Required("--images");
+  if (const int rc = p.Parse(argc, argv); rc >= 0) return rc;
+  if (protocol != "half" && protocol != "first5" && protocol != "builtin" && protocol != "all") {
+    return p.UsageError("--protocol: got '" + protocol +
+                        "', expected half, first5, builtin or all");
+  }
+  std::string error;
+  if (!json.empty() && !CheckOutputPath(json, error)) {
+    std::fprintf(stderr, "ballvision detect-eval: %s\n", error.c_str());
+    return 1;
+  }
+  std::vector<AnnotatedImage> all;
+  BallClassifier classifier;
+  static ColorLut builtin;
+  FloorBallProfile no_profile;
+  if (!LoadAnnotations(boxes, images_dir, all, error) ||
+      !LoadClassifier(classifier_arg, classifier, error) ||
+      (protocol == "builtin" || protocol == "all"
+           ? !LoadTable("builtin", ball, builtin, no_profile, error)
+           : false)) {
+    std::fprintf(stderr, "ballvision detect-eval: %s\n", error.c_str());
+    return 1;
+  }
+  // Sets, each in name order.
+  std::map<std::string, std::vector<AnnotatedImage>> sets;
+  std::vector<std::string> wanted;
+  for (size_t a = 0; a < sets_arg.size();) {
+    const size_t b = sets_arg.find(',', a);
+    wanted.push_back(sets_arg.substr(a, b == std::string::npos ? std::string::npos : b - a));
+    a = b == std::string::npos ? sets_arg.size() : b + 1;
+  }
+  for (const AnnotatedImage& im : all) {
+    const std::string set = ImageSet(im.name);
+    if (!wanted.empty() && std::none_of(wanted.begin(), wanted.end(), [&](const std::string& w) {
+          return set.rfind(w, 0) == 0;
+        })) {
+      continue;
+    }
+    sets[set].push_back(im);
+  }
+  if (sets.empty()) {
+    std::fprintf(stderr, "ballvision detect-eval: no image of the sets %s in %s\n",
+                 sets_arg.c_str(), boxes.c_str());
+    return 1;
+  }
+  for (auto& [name, v] : sets) {
+    std::sort(v.begin(), v.end(),
+              [](const AnnotatedImage& x, const AnnotatedImage& y) { return x.name < y.name; });
+  }
+  InstallInterruptHandlers();
+  EvalContext ctx{boxes, &classifier, verbose};
+  SafeOutput cand;
+  if (!candidates_path.empty()) {
+    if (!cand.Open(candidates_path, error)) {
+      std::fprintf(stderr, "ballvision detect-eval: %s\n", error.c_str());
+      return 1;
+    }
+    cand << "protocol,set,image,countable,box,";
+    CandidateHeader(cand);
+    ctx.candidates = &cand;
+  }
+  nlohmann::json out = nlohmann::json::object();
+  const bool all_protocols = protocol == "all";
+  for (const std::string proto : {"half", "first5", "builtin"}) {
+    if (!all_protocols && protocol != proto) continue;
+    std::printf("%s%s:\n", proto.c_str(),
+                proto == "builtin" ? (" (" + ball + " ball)").c_str() : "");
+    Score pooled;
+    nlohmann::json per_set = nlohmann::json::object();
+    for (const auto& [name, images] : sets) {
+      if (InterruptSignal()) {
+        ReportInterrupt("ballvision detect-eval");
+        return InterruptExitCode();
+      }
+      Score s;
+      bool ok = true;
+      ctx.label = std::string(proto) + "," + name;
+      if (proto == "half") {
+        const auto even = SplitImages(images, "even"), odd = SplitImages(images, "odd");
+        ok = TeachAndTest(ctx, name + " even->odd", even, odd, s, error) &&
+             TeachAndTest(ctx, name + " odd->even", odd, even, s, error);
+      } else if (proto == "first5") {
+        std::vector<AnnotatedImage> train, test;
+        for (const AnnotatedImage& im : images) {
+          (train.size() < 5 && im.BallCount() > 0 ? train : test).push_back(im);
+        }
+        ok = TeachAndTest(ctx, name + " first 5", train, test, s, error);
+      } else {
+        ok = RunTest(ctx, builtin, no_profile, images, s, error);
+      }
+      if (!ok) {
+        std::fprintf(stderr, "ballvision detect-eval: %s\n", error.c_str());
+        return 1;
+      }
+      PrintScore(name, s);
+      per_set[name] = ScoreJson(s);
+      pooled.Add(s);
+    }
+    PrintScore("pooled", pooled);
+    out[proto] = {{"sets", per_set}, {"pooled", ScoreJson(pooled)}};
+  }
+  if ((!json.empty() && !WriteFileAtomic(json, out.dump(1) + "\n", error)) ||
+      (cand.is_open() && !cand.Commit(error))) {
+    std::fprintf(stderr, "ballvision detect-eval: %s\n", error.c_str());
+    return 1;
+  }
+  return 0;
+}
+
+}  // namespace
+
+int CmdDetect(int argc, char** argv) { return Detect(argc, argv); }
+int CmdDetectEval(int argc, char** argv) { return DetectEval(argc, argv); }
+
+}  // namespace bv::cli
