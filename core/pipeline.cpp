@@ -424,6 +424,13 @@ bool Pipeline::PerspField::Inside(float u_px, float v_px, float radius_px) const
   return p->InField(ray->origin.x() + t * ray->dir.x(), ray->origin.y() + t * ray->dir.y());
 }
 
+namespace {
+// The place check of the rig's own ball.
+void GeometryConfigFor(const RigCalibration& cal, BallGeometryConfig& g) {
+  g.ball_radius_m = cal.ball_radius_m;
+}
+}  // namespace
+
 Status Pipeline::Init(const RigCalibration& calibration, const ColorLut& lut,
                       const PipelineConfig& config) {
   initialised_ = false;
@@ -452,6 +459,7 @@ Status Pipeline::Init(const RigCalibration& calibration, const ColorLut& lut,
     }
     BallFinderConfig finder = config_.finder;
     finder.fit_circles = false;
+    finder.check = nullptr;
     omni_field_.p = this;
     if (finder.field == nullptr) finder.field = &omni_field_;
     BV_TRY(omni_finder_.Init(omni_scan_, finder));
@@ -461,6 +469,13 @@ Status Pipeline::Init(const RigCalibration& calibration, const ColorLut& lut,
                                   calibration.persp.height_px));
     BallFinderConfig finder = config_.finder;
     finder.fit_circles = config_.persp_circles;
+    finder.check = nullptr;
+    if (config_.persp_checks) {
+      GeometryConfigFor(calibration, config_.geometry);
+      BV_TRY(persp_geometry_.SetPersp(calibration.persp, config_.geometry));
+      persp_check_.Init(&persp_geometry_, config_.classifier, config_.check);
+      finder.check = &persp_check_;
+    }
     persp_field_.p = this;
     if (finder.field == nullptr) finder.field = &persp_field_;
     BV_TRY(persp_finder_.Init(persp_scan_, finder));

@@ -5,6 +5,7 @@
 // choice. Statically sized; Process() never allocates.
 #include <cstdint>
 
+#include "core/ball_check/ball_check.h"
 #include "core/ball_filter/ball_filter.h"
 #include "core/ball_filter/candidate_tracks.h"
 #include "core/calibration/calibration.h"
@@ -69,6 +70,13 @@ struct PipelineConfig {
   float omni_azimuth_bias_rad = 0.0015f;
   float size_range_rel = 0.05f;  // also how much smaller than predicted a region in view may be
   BallFinderConfig finder;       // ball choice and attention (core/detect), both cameras
+  // Size, place and look of the persp camera's candidates (core/ball_check): the calibrated
+  // camera's place check, and the appearance classifier when `classifier` is given (loaded; it
+  // must outlive the pipeline).
+  bool persp_checks = true;
+  const BallClassifier* classifier = nullptr;
+  BallGeometryConfig geometry;
+  BallCheckConfig check;
   // Circles fitted to persp outlines that are not clean discs (a ball merged with a red box or
   // cone behind it, partly hidden by a robot). Off for the omni image: the mirror bends the ball.
   bool persp_circles = true;
@@ -236,6 +244,8 @@ class Pipeline {
   ScanlineTable<kOmniScanPixels> omni_scan_;
   ScanlineTable<kPerspScanPixels> persp_scan_;
   BallFinder omni_finder_, persp_finder_;
+  BallGeometry persp_geometry_;
+  BallCheck persp_check_;
   BallFilter filter_;
   ImagePrediction pred_omni_, pred_persp_;
   MeasurementInfo meas_;

@@ -162,7 +162,7 @@ TEST(ColorLutTest, CorruptBlobsAreRejectedAndLeaveTheLutUntouched) {
   b[4] = static_cast<uint8_t>(BlobKind::kCalibration);  // kind
   EXPECT_EQ(ParseLut(b, *target).code(), StatusCode::kInvalidArgument);
   b = good;
-  b[6] = 2;  // newer version
+  b[6] = kColorLutBlobVersion + 1;  // newer version
   EXPECT_EQ(ParseLut(b, *target).code(), StatusCode::kUnimplemented);
   EXPECT_EQ(ParseLut(std::span<const uint8_t>(good.data(), 8), *target).code(),
             StatusCode::kDataLoss);

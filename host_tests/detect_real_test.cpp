@@ -1,15 +1,24 @@
-// Front end on real images: LUT trained on one half of an annotated set, ball recall and false
-// detections measured on the other half (msl_ball_robocup_ml: yellow ball, dataset boxes;
-// rcj_omicron: orange ball, our boxes in host_tests/data/luts/rcj_omicron_boxes.txt).
+// Front end on real images. The whole MSL dev set (msl_robocup_ml) through `ballvision
+// detect-eval`'s three protocols, each venue scored with the classifier trained without it
+// (host_tests/data/ball_classifier), asserting today's figures; the 2023-2025 images of
+// msl_ball_robocup_ml that no table, model or classifier was tuned on, with everything built
+// in. Older checks: a LUT trained on one half of an annotated set, scored on the other half
+// (msl_ball_robocup_ml: yellow ball, dataset boxes; rcj_omicron: orange ball, our boxes in
+// host_tests/data/luts/rcj_omicron_boxes.txt).
 #include <gtest/gtest.h>
 
 #include <sys/stat.h>
 #include <algorithm>
 #include <cstdio>
+#include <fstream>
 #include <memory>
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
+#include "host_tests/test_util.h"
+#include "tools/ballvision/commands.h"
 #include "tools/ballvision/lut_train.h"
 
 namespace bv {
@@ -53,6 +62,68 @@ lut::BoxEvalCounts TrainAndTest(const std::string& boxes, const std::string& ima
               boxes.c_str(), train_parity == 0 ? "even" : "odd", e.images, e.images_with_ball,
               e.hit, e.false_det, e.missed);
   return e;
+}
+
+const std::string kClassifiers = std::string(BV_TEST_DATA_DIR) + "/ball_classifier";
+
+// detect-eval's pooled figures per protocol.
+nlohmann::json DetectEval(const std::vector<std::string>& args, const std::string& name) {
+  const std::string out = test::TempDir("detect_real") + "/" + name + ".json";
+  std::vector<std::string> argv = {"detect-eval", "--json", out};
+  argv.insert(argv.end(), args.begin(), args.end());
+  EXPECT_EQ(test::RunCommand(cli::CmdDetectEval, argv), 0);
+  std::ifstream in(out);
+  return nlohmann::json::parse(in);
+}
+
+struct Expect {
+  const char* protocol;
+  int found, false_images;  // today's (2026-12-06), each venue with its held-out classifier
+};
+
+void ExpectFigures(const nlohmann::json& r, const char* venue, const Expect& e) {
+  const auto& p = r.at(e.protocol).at("pooled");
+  std::printf("%s %-8s found %d / %d, false %d / %d\n", venue, e.protocol, p.at("found").get<int>(),
+              p.at("countable").get<int>(), p.at("false_images").get<int>(),
+              p.at("images").get<int>());
+  // Two images of slack either way: a change that loses more is a regression, one that gains more
+  // should move these numbers.
+  EXPECT_GE(p.at("found").get<int>(), e.found - 2) << venue << " " << e.protocol;
+  EXPECT_LE(p.at("found").get<int>(), e.found + 2) << venue << " " << e.protocol;
+  EXPECT_LE(p.at("false_images").get<int>(), e.false_images + 2) << venue << " " << e.protocol;
+  EXPECT_GE(p.at("false_images").get<int>(), e.false_images - 2) << venue << " " << e.protocol;
+}
+
+TEST(DetectRealTest, DevSetEachVenueWithTheClassifierTrainedWithoutIt) {
+  const std::string dir = kData + "/msl_robocup_ml";
+  if (!Exists(dir + "/annotations_px.txt")) GTEST_SKIP() << "no data at " << dir;
+  struct Venue {
+    const char* name;
+    Expect half, first5, builtin;
+  };
+  const Venue venues[] = {
+      {"2019", {"half", 70, 3}, {"first5", 37, 3}, {"builtin", 66, 9}},
+      {"2022", {"half", 182, 20}, {"first5", 149, 27}, {"builtin", 128, 77}},
+  };
+  for (const Venue& v : venues) {
+    const nlohmann::json r =
+        DetectEval({"--boxes", dir + "/annotations_px.txt", "--images", dir + "/images", "--sets",
+                    v.name, "--classifier", kClassifiers + "/without_" + v.name + ".bin"},
+                   v.name);
+    for (const Expect& e : {v.half, v.first5, v.builtin}) ExpectFigures(r, v.name, e);
+  }
+}
+
+TEST(DetectRealTest, VenuesNoneOfItWasTunedOnWithEverythingBuiltIn) {
+  // msl_ball_robocup_ml's images from 2023-2025 (not in msl_robocup_ml): the yellow ball's built-in
+  // model and the built-in classifier, no teaching.
+  const std::string dir = kData + "/msl_ball_robocup_ml";
+  if (!Exists(dir + "/annotations_px.txt")) GTEST_SKIP() << "no data at " << dir;
+  const nlohmann::json r =
+      DetectEval({"--boxes", dir + "/annotations_px.txt", "--images", dir + "/images", "--sets",
+                  "2023,2024,2025", "--protocol", "builtin", "--ball", "yellow"},
+                 "heldout");
+  ExpectFigures(r, "2023-2025", {"builtin", 6, 0});
 }
 
 TEST(DetectRealTest, MslYellowBallHeldOutHalf) {

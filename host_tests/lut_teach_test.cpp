@@ -2,6 +2,7 @@
 // (too few pixels, grey, a "ball" that is the field, a click on nothing), and a whole teach over
 // a rendered sequence that finds the ball with the taught table.
 #include "tools/ballvision/lut_teach.h"
+#include "tools/ballvision/box_teach.h"
 
 #include "core/color_lut/color_teach.h"
 
@@ -131,14 +132,15 @@ TEST(LutTeachTest, NarrowingLeavesOutABackgroundClusterBesideTheBall) {
 TEST(LutTeachTest, TeachingTheCarpetAsBallIsRefused) {
   const std::string img = kSim + "/bounce/persp/000000.png";
   if (!Exists(img)) GTEST_SKIP() << "no data at " << img;
-  // A "ball" box on the carpet below the ball: the fit would be green.
-  BoxImage bi;
-  bi.path = img;
-  bi.balls.push_back({100, 400, 160, 460});
-  TeachReport r;
+  // A "ball" box on the carpet below the ball: the taught class would be green.
+  cli::AnnotatedImage im;
+  im.name = "000000.png";
+  im.path = img;
+  im.boxes.push_back({0, 100, 400, 160, 460, 1});
+  cli::BoxTeach r;
   std::string error;
-  EXPECT_FALSE(TeachBoxes({bi}, BallColorModel{}, r, error));
-  EXPECT_NE(error.find("field's and lines' pixels"), std::string::npos) << error;
+  EXPECT_FALSE(cli::TeachFromBoxes("boxes.txt", {im}, cli::BoxTeachOptions{}, r, error));
+  EXPECT_NE(error.find("the field's or the lines'"), std::string::npos) << error;
 }
 
 TEST(LutTeachTest, OneClickTeachOnASequenceFindsTheBallEverywhere) {

@@ -192,108 +192,108 @@ int StepL1(const Yuv& a, const Yuv& b) {
   return std::abs(int{a.y} - int{b.y}) + std::abs(int{a.u} - int{b.u}) +
          std::abs(int{a.v} - int{b.v});
 }
-}  // namespace
 
-void ComputeBallFeatures(const YuyvImage& image, const ColorLut& lut, const CandidateShape& c,
-                         BallFeatures& out) {
-  out = BallFeatures{};
-  float* f = out.f;
-  const float r = std::max(c.radius_px, 1.0f);
-  const int w = c.u_max - c.u_min + 1, h = c.v_max - c.v_min + 1;
-  f[kFeatRoundness] = c.roundness;
-  f[kFeatHullRoundness] = c.hull_roundness;
-  f[kFeatWidthRatio] = c.width_ratio;
-  f[kFeatFill] = std::min(1.0f, c.area_px / static_cast<float>(std::max(w * h, 1)));
-  f[kFeatAspect] = static_cast<float>(std::min(w, h)) / static_cast<float>(std::max(w, h));
-  f[kFeatLogRadius] = std::log2(r);
-  f[kFeatArc] = static_cast<float>(c.arc_sectors) / 16.0f;
-  f[kFeatCut] =
-      (c.u_min <= 0 || c.v_min <= 0 || c.u_max >= image.width - 1 || c.v_max >= image.height - 1)
-          ? 1.0f
-          : 0.0f;
+// The candidate's pixels on the polar pattern, feature group by feature group.
+class FeatureSampler {
+ public:
+  FeatureSampler(const YuyvImage& image, const ColorLut& lut, const CandidateShape& c,
+                 BallFeatures& out)
+      : image_(image), lut_(lut), c_(c), r_(std::max(c.radius_px, 1.0f)), out_(out) {}
 
-  auto at = [&](float du, float dv) {
-    Sample s;
-    const int u = static_cast<int>(std::lround(c.u_px + du));
-    const int v = static_cast<int>(std::lround(c.v_px + dv));
-    if (!image.contains(u, v)) return s;
-    s.valid = true;
-    s.p = image.at(u, v);
-    s.cls = lut.Classify(s.p.y, s.p.u, s.p.v);
-    ++out.pixels_read;
-    return s;
-  };
+  void Shape() {
+    float* f = out_.f;
+    const int w = c_.u_max - c_.u_min + 1, h = c_.v_max - c_.v_min + 1;
+    f[kFeatRoundness] = c_.roundness;
+    f[kFeatHullRoundness] = c_.hull_roundness;
+    f[kFeatWidthRatio] = c_.width_ratio;
+    f[kFeatFill] = std::min(1.0f, c_.area_px / static_cast<float>(std::max(w * h, 1)));
+    f[kFeatAspect] = static_cast<float>(std::min(w, h)) / static_cast<float>(std::max(w, h));
+    f[kFeatLogRadius] = std::log2(r_);
+    f[kFeatArc] = static_cast<float>(c_.arc_sectors) / 16.0f;
+    const bool cut = c_.u_min <= 0 || c_.v_min <= 0 || c_.u_max >= image_.width - 1 ||
+                     c_.v_max >= image_.height - 1;
+    f[kFeatCut] = cut ? 1.0f : 0.0f;
+  }
 
-  // Inside: the centre and three rings.
-  Moments in, top, bottom, left, right;
-  float in_ball = 0, in_white = 0;
-  Sample inner_edge[kRays];
-  auto add_inside = [&](const Sample& s, float cs, float sn) {
-    if (!s.valid) return;
-    in.Add(s.p);
-    in_ball += s.cls == ColorClass::kBall;
-    in_white += s.cls == ColorClass::kLine || s.p.y >= kHighlightY;
-    if (sn < -0.1f) top.Add(s.p);
-    if (sn > 0.1f) bottom.Add(s.p);
-    if (cs < -0.1f) left.Add(s.p);
-    if (cs > 0.1f) right.Add(s.p);
-  };
-  add_inside(at(0, 0), 0, 0);
-  for (float ring : kInnerRings) {
+  // The centre and three rings: colour, spread, shading, texture; keeps the outermost ring for
+  // the edge.
+  void Inside() {
+    const Sample centre = At(0, 0);
+    AddInside(centre, 0, 0);
+    float core_n = centre.valid ? 1.0f : 0.0f, core_ball = Core(centre) ? 1.0f : 0.0f;
+    float texture = 0, texture_n = 0;
+    Sample prev[kRays];
+    for (Sample& p : prev) p = centre;
+    for (float ring : kInnerRings) {
+      for (int i = 0; i < kRays; ++i) {
+        const Sample s = At(ring * r_ * kCos[i], ring * r_ * kSin[i]);
+        AddInside(s, kCos[i], kSin[i]);
+        if (ring == kInnerRings[0] && s.valid) {
+          core_n += 1;
+          core_ball += Core(s) ? 1.0f : 0.0f;
+        }
+        if (s.valid && prev[i].valid) {
+          texture += static_cast<float>(std::abs(int{s.p.y} - int{prev[i].p.y}));
+          texture_n += 1;
+        }
+        prev[i] = s;
+        if (ring == kInnerRings[2]) inner_edge_[i] = s;
+      }
+    }
+    float* f = out_.f;
+    const float in_y = in_.MeanY(), in_n = std::max(in_.n, 1.0f);
+    f[kFeatInBall] = in_ball_ / in_n;
+    f[kFeatInWhite] = in_white_ / in_n;
+    f[kFeatInLuma] = in_y / 255.0f;
+    f[kFeatInLumaSpread] = in_.SdY() / (in_y + 16.0f);
+    const float in_chroma = in_.n > 0 ? in_.chroma / in_.n : 0.0f;
+    f[kFeatInChroma] = std::min(in_chroma / (in_y + 16.0f), 2.0f);
+    f[kFeatInChromaSpread] = in_.SdChroma() / (in_chroma + 8.0f);
+    f[kFeatCoreBall] = core_n > 0 ? core_ball / core_n : 0.0f;
+    f[kFeatInTexture] = texture_n > 0 ? texture / texture_n / (in_y + 16.0f) : 0.0f;
+    f[kFeatShadeTopBottom] =
+        top_.n > 0 && bottom_.n > 0 ? (top_.MeanY() - bottom_.MeanY()) / (in_y + 16.0f) : 0.0f;
+    f[kFeatShadeLeftRight] = left_.n > 0 && right_.n > 0
+                                 ? std::fabs(left_.MeanY() - right_.MeanY()) / (in_y + 16.0f)
+                                 : 0.0f;
+  }
+
+  // The edge ring just beyond the outline and a context ring further out.
+  void Outside() {
+    Moments ring;
+    float out_cls[kColorClassCount] = {};
+    int steps[kRays];
+    int n_steps = 0, strong = 0;
     for (int i = 0; i < kRays; ++i) {
-      const Sample s = at(ring * r * kCos[i], ring * r * kSin[i]);
-      add_inside(s, kCos[i], kSin[i]);
-      if (ring == kInnerRings[2]) inner_edge[i] = s;
+      const Sample e = At(kEdgeOuter * r_ * kCos[i], kEdgeOuter * r_ * kSin[i]);
+      const Sample x = At(kContextRing * r_ * kCos[i], kContextRing * r_ * kSin[i]);
+      for (const Sample* s : {&e, &x}) {
+        if (!s->valid) continue;
+        ring.Add(s->p);
+        out_cls[static_cast<int>(s->cls)] += 1;
+      }
+      if (e.valid && inner_edge_[i].valid) {
+        const int step = StepL1(e.p, inner_edge_[i].p);
+        steps[n_steps++] = step;
+        strong += step >= kEdgeStep;
+      }
     }
-  }
-  const float in_y = in.MeanY();
-  const float in_n = std::max(in.n, 1.0f);
-  f[kFeatInBall] = in_ball / in_n;
-  f[kFeatInWhite] = in_white / in_n;
-  f[kFeatInLuma] = in_y / 255.0f;
-  f[kFeatInLumaSpread] = in.SdY() / (in_y + 16.0f);
-  const float in_chroma = in.n > 0 ? in.chroma / in.n : 0.0f;
-  f[kFeatInChroma] = std::min(in_chroma / (in_y + 16.0f), 2.0f);
-  f[kFeatInChromaSpread] = in.SdChroma() / (in_chroma + 8.0f);
-  f[kFeatShadeTopBottom] =
-      top.n > 0 && bottom.n > 0 ? (top.MeanY() - bottom.MeanY()) / (in_y + 16.0f) : 0.0f;
-  f[kFeatShadeLeftRight] =
-      left.n > 0 && right.n > 0 ? std::fabs(left.MeanY() - right.MeanY()) / (in_y + 16.0f) : 0.0f;
-
-  // Outside: the edge ring just beyond the outline and a context ring further out.
-  Moments ring;
-  float out_cls[kColorClassCount] = {};
-  int steps[kRays];
-  int n_steps = 0, strong = 0;
-  for (int i = 0; i < kRays; ++i) {
-    const Sample e = at(kEdgeOuter * r * kCos[i], kEdgeOuter * r * kSin[i]);
-    const Sample x = at(kContextRing * r * kCos[i], kContextRing * r * kSin[i]);
-    for (const Sample* s : {&e, &x}) {
-      if (!s->valid) continue;
-      ring.Add(s->p);
-      out_cls[static_cast<int>(s->cls)] += 1;
+    float* f = out_.f;
+    const float ring_n = std::max(ring.n, 1.0f);
+    f[kFeatOutField] = out_cls[static_cast<int>(ColorClass::kField)] / ring_n;
+    f[kFeatOutLine] = out_cls[static_cast<int>(ColorClass::kLine)] / ring_n;
+    f[kFeatOutBall] = out_cls[static_cast<int>(ColorClass::kBall)] / ring_n;
+    f[kFeatOutDark] = (out_cls[static_cast<int>(ColorClass::kObstacle)] +
+                       out_cls[static_cast<int>(ColorClass::kUnknown)]) /
+                      ring_n;
+    const float in_y = in_.MeanY(), ring_y = ring.MeanY();
+    f[kFeatLumaContrast] = ring.n > 0 ? (in_y - ring_y) / (in_y + ring_y + 16.0f) : 0.0f;
+    if (ring.n > 0 && in_.n > 0) {
+      const float du = in_.u / in_.n - ring.u / ring.n, dv = in_.v / in_.n - ring.v / ring.n;
+      f[kFeatChromaContrast] = std::sqrt(du * du + dv * dv) / 128.0f;
     }
-    if (e.valid && inner_edge[i].valid) {
-      const int step = StepL1(e.p, inner_edge[i].p);
-      steps[n_steps++] = step;
-      strong += step >= kEdgeStep;
-    }
-  }
-  const float ring_n = std::max(ring.n, 1.0f);
-  f[kFeatOutField] = out_cls[static_cast<int>(ColorClass::kField)] / ring_n;
-  f[kFeatOutLine] = out_cls[static_cast<int>(ColorClass::kLine)] / ring_n;
-  f[kFeatOutBall] = out_cls[static_cast<int>(ColorClass::kBall)] / ring_n;
-  f[kFeatOutDark] = (out_cls[static_cast<int>(ColorClass::kObstacle)] +
-                     out_cls[static_cast<int>(ColorClass::kUnknown)]) /
-                    ring_n;
-  const float ring_y = ring.MeanY();
-  f[kFeatLumaContrast] = ring.n > 0 ? (in_y - ring_y) / (in_y + ring_y + 16.0f) : 0.0f;
-  if (ring.n > 0 && in.n > 0) {
-    const float du = in.u / in.n - ring.u / ring.n, dv = in.v / in.n - ring.v / ring.n;
-    f[kFeatChromaContrast] = std::sqrt(du * du + dv * dv) / 128.0f;
-  }
-  f[kFeatOutLumaSpread] = ring.SdY() / (ring_y + 16.0f);
-  if (n_steps > 0) {
+    f[kFeatOutLumaSpread] = ring.SdY() / (ring_y + 16.0f);
+    if (n_steps == 0) return;
     std::sort(steps, steps + n_steps);
     float sum = 0;
     for (int i = 0; i < n_steps; ++i) sum += static_cast<float>(steps[i]);
@@ -304,6 +304,52 @@ void ComputeBallFeatures(const YuyvImage& image, const ColorLut& lut, const Cand
     f[kFeatEdgeMin] = weak / static_cast<float>(quarter) / 128.0f;
     f[kFeatEdgeFraction] = static_cast<float>(strong) / static_cast<float>(n_steps);
   }
+
+ private:
+  Sample At(float du, float dv) {
+    Sample s;
+    const int u = static_cast<int>(std::lround(c_.u_px + du));
+    const int v = static_cast<int>(std::lround(c_.v_px + dv));
+    if (!image_.contains(u, v)) return s;
+    s.valid = true;
+    s.p = image_.at(u, v);
+    s.cls = lut_.Classify(s.p.y, s.p.u, s.p.v);
+    ++out_.pixels_read;
+    return s;
+  }
+  static bool Core(const Sample& s) {
+    return s.valid &&
+           (s.cls == ColorClass::kBall || s.cls == ColorClass::kLine || s.p.y >= kHighlightY);
+  }
+  void AddInside(const Sample& s, float cs, float sn) {
+    if (!s.valid) return;
+    in_.Add(s.p);
+    in_ball_ += s.cls == ColorClass::kBall;
+    in_white_ += s.cls == ColorClass::kLine || s.p.y >= kHighlightY;
+    if (sn < -0.1f) top_.Add(s.p);
+    if (sn > 0.1f) bottom_.Add(s.p);
+    if (cs < -0.1f) left_.Add(s.p);
+    if (cs > 0.1f) right_.Add(s.p);
+  }
+
+  const YuyvImage& image_;
+  const ColorLut& lut_;
+  const CandidateShape& c_;
+  const float r_;
+  BallFeatures& out_;
+  Moments in_, top_, bottom_, left_, right_;
+  float in_ball_ = 0, in_white_ = 0;
+  Sample inner_edge_[kRays];
+};
+}  // namespace
+
+void ComputeBallFeatures(const YuyvImage& image, const ColorLut& lut, const CandidateShape& c,
+                         BallFeatures& out) {
+  out = BallFeatures{};
+  FeatureSampler s(image, lut, c, out);
+  s.Shape();
+  s.Inside();
+  s.Outside();
 }
 
 // ---- classifier ----
@@ -329,7 +375,7 @@ float BallClassifier::Logit(const BallFeatures& features) const {
 namespace {
 const char* CheckWeights(const BallClassifierWeights& w) {
   if (w.hidden < 1 || w.hidden > BallClassifierWeights::kMaxHidden) {
-    return "ball classifier: hidden units not in 1..32";
+    return "ball classifier: hidden units not in 1..16";
   }
   for (int i = 0; i < kBallFeatureCount; ++i) {
     if (!std::isfinite(w.in_mean[i]) || !std::isfinite(w.in_scale[i]) || w.in_scale[i] < 0) {
@@ -377,7 +423,7 @@ Status BallClassifier::Parse(std::span<const uint8_t> blob) {
                   "ball classifier: feature set version or count differs from this build's");
   }
   if (hidden == 0 || hidden > BallClassifierWeights::kMaxHidden) {
-    return Status(StatusCode::kInvalidArgument, "ball classifier: hidden units not in 1..32");
+    return Status(StatusCode::kInvalidArgument, "ball classifier: hidden units not in 1..16");
   }
   if (view->payload.size() != BallClassifierPayloadBytes(hidden)) {
     return Status(StatusCode::kInvalidArgument,
@@ -405,7 +451,8 @@ Status BallClassifier::Parse(std::span<const uint8_t> blob) {
 // ---- both ----
 
 CandidateVerdict BallCheck::Evaluate(const YuyvImage& image, const ColorLut& lut,
-                                     const CandidateShape& c, BallFeatures* features) const {
+                                     const CandidateShape& c, BallFeatures* features,
+                                     float logit_bonus) const {
   CandidateVerdict v;
   if (config_.use_place && geometry_ != nullptr && geometry_->known()) {
     v.place = geometry_->Check(c, v.where);
@@ -427,7 +474,7 @@ CandidateVerdict BallCheck::Evaluate(const YuyvImage& image, const ColorLut& lut
   v.pixels_read = feat.pixels_read;
   if (look) {
     v.classified = true;
-    v.logit = classifier_->Logit(feat);
+    v.logit = classifier_->Logit(feat) + logit_bonus;
     v.pass = v.logit > classifier_->threshold_logit();
     v.score *= 1.0f / (1.0f + std::exp(-v.logit));
   }

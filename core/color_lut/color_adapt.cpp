@@ -21,6 +21,7 @@ BallColorModel Union(const BallColorModel& a, const BallColorModel& b) {
   u.chroma_max = std::fmax(a.chroma_max, b.chroma_max);
   u.y_min = a.y_min < b.y_min ? a.y_min : b.y_min;
   u.y_max = a.y_max > b.y_max ? a.y_max : b.y_max;
+  u.chroma_abs_min = a.chroma_abs_min < b.chroma_abs_min ? a.chroma_abs_min : b.chroma_abs_min;
   return u;
 }
 
@@ -28,7 +29,8 @@ bool Same(const BallColorModel& a, const BallColorModel& b) {
   return a.hue_min_deg == b.hue_min_deg && a.hue_max_deg == b.hue_max_deg &&
          a.chroma_min == b.chroma_min && a.chroma_min_bright == b.chroma_min_bright &&
          a.chroma_max == b.chroma_max && a.bright_y == b.bright_y &&
-         a.bright_y_end == b.bright_y_end && a.y_min == b.y_min && a.y_max == b.y_max;
+         a.bright_y_end == b.bright_y_end && a.y_min == b.y_min && a.y_max == b.y_max &&
+         a.chroma_abs_min == b.chroma_abs_min;
 }
 
 }  // namespace

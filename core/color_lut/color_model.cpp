@@ -22,7 +22,8 @@ BallColorTest::BallColorTest(const BallColorModel& m)
       bright_y_(m.bright_y),
       bright_y_end_(m.bright_y_end),
       y_min_(m.y_min),
-      y_max_(m.y_max) {}
+      y_max_(m.y_max),
+      abs_min2_(static_cast<float>(m.chroma_abs_min) * static_cast<float>(m.chroma_abs_min)) {}
 
 float BallColorTest::ChromaFloor(int y) const {
   if (y >= bright_y_end_) return cmin_bright_;
@@ -35,7 +36,7 @@ bool BallColorTest::ContainsIgnoringHue(int y, int u, int v) const {
   if (y < y_min_ || y > y_max_) return false;
   const float du = static_cast<float>(u - 128), dv = static_cast<float>(v - 128);
   const float c2 = du * du + dv * dv, fy = static_cast<float>(y), f = ChromaFloor(y);
-  return c2 >= f * f * fy * fy && c2 <= cmax_ * cmax_ * fy * fy;
+  return c2 >= f * f * fy * fy && c2 >= abs_min2_ && c2 <= cmax_ * cmax_ * fy * fy;
 }
 
 bool BallColorTest::Contains(int y, int u, int v) const {
@@ -75,14 +76,18 @@ BallColorModel BuiltInBallModel(BallName b) {
     case BallName::kRed:
       break;
     case BallName::kOrange:
-      m.hue_min_deg = 112.0f;
-      m.hue_max_deg = 160.0f;
+      m.hue_min_deg = 117.0f;
+      m.hue_max_deg = 162.0f;
       break;
     case BallName::kYellow:
-      m.hue_min_deg = 145.0f;
-      m.hue_max_deg = 205.0f;
+      // Dark grey reads yellowish on many sensors (U a little below grey): the luma and absolute
+      // chroma floors keep a dark hall's ceiling out (README: the grid it was chosen from).
+      m.hue_min_deg = 140.0f;
+      m.hue_max_deg = 200.0f;
       m.chroma_min = 0.16f;
       m.chroma_min_bright = 0.10f;
+      m.y_min = 64;
+      m.chroma_abs_min = 14;
       break;
   }
   return m;
@@ -150,7 +155,8 @@ void ForEachCellVote(const BallColorModel& m, const BallColorModel* before, int 
     const int y = kYStep / 4 + k * kYStep / 2;
     const float f = p.ChromaFloor(y), fy = static_cast<float>(y);
     const bool in_range = y >= m.y_min && y <= m.y_max;
-    lo2[k] = in_range ? f * f * fy * fy : 1e30f;
+    const float abs2 = static_cast<float>(m.chroma_abs_min) * static_cast<float>(m.chroma_abs_min);
+    lo2[k] = in_range ? (f * f * fy * fy > abs2 ? f * f * fy * fy : abs2) : 1e30f;
     hi2[k] = m.chroma_max * m.chroma_max * fy * fy;
   }
   for (int cu = u_first; cu < u_end; ++cu) {

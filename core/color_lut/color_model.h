@@ -25,6 +25,9 @@ struct BallColorModel {
   float chroma_max = 1.30f;         // above: dark-pixel noise, not a surface colour
   uint8_t bright_y = 128, bright_y_end = 192;
   uint8_t y_min = 28, y_max = 255;  // below y_min chroma is mostly sensor noise
+  // |(U-128, V-128)| floor in levels, whatever the luma: dark grey reads a few levels off grey
+  // (often yellowish), which a relative floor alone lets in at low Y. 0: none.
+  uint8_t chroma_abs_min = 0;
 };
 
 /// The match balls the built-in models know, by name (`--ball`, the device's ball command).
@@ -59,6 +62,7 @@ class BallColorTest {
   float lo_x_, lo_y_, hi_x_, hi_y_;  // unit vectors of the hue window's edges in (U, V)
   float cmin_, cmin_bright_, cmax_;
   int bright_y_, bright_y_end_, y_min_, y_max_;
+  float abs_min2_;
 };
 
 /// The model evaluated on one pixel (host tools and tests; the device uses the table).

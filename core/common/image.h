@@ -10,9 +10,9 @@ inline constexpr int kFrameHeight = 480;
 inline constexpr size_t kYuyvBytesPerPixel = 2;
 inline constexpr size_t kFrameBytes = kFrameWidth * kFrameHeight * kYuyvBytesPerPixel;
 // The largest frame the front end takes (scan tables, contours, checks): a sensor of up to
-// 1024 x 1024, such as the 608 x 800 portrait cameras of the MSL dataset. The boards' DMA slots
-// hold the reference rig's kFrameWidth x kFrameHeight.
-inline constexpr int kMaxFrameWidth = 1024;
+// 1280 x 1024 (720p, SXGA, the 608 x 800 portrait cameras of the MSL dataset). The boards' DMA
+// slots hold the reference rig's kFrameWidth x kFrameHeight.
+inline constexpr int kMaxFrameWidth = 1280;
 inline constexpr int kMaxFrameHeight = 1024;
 
 struct Yuv {

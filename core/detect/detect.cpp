@@ -346,7 +346,13 @@ BallFinder::Choice BallFinder::ChooseBall(const YuyvImage& image, const ColorLut
     float score = 1;
     bool classified = false;
     if (checked) {
-      const CandidateVerdict v = config_.check->Evaluate(image, lut, ShapeOf(r));
+      float bonus = 0;
+      if (prediction != nullptr) {
+        const float du = r.cu_px - prediction->u_px, dv = r.cv_px - prediction->v_px;
+        const float s2 = 9.0f * prediction->sigma_px * prediction->sigma_px;
+        if (du * du + dv * dv <= s2) bonus = config_.tracked_logit_bonus;
+      }
+      const CandidateVerdict v = config_.check->Evaluate(image, lut, ShapeOf(r), nullptr, bonus);
       stats.pixels_read += v.pixels_read;
       if (!v.pass) {
         const bool place = v.place != PlaceVerdict::kPlausible;

@@ -26,10 +26,13 @@ struct BoxTeach {
   std::unique_ptr<ColorLut> table;
   int ball_cells = 0;
   double ball_samples = 0, other_samples = 0;
-  size_t background = 0;        // background samples checked (every 8th pixel, outside boxes)
-  double field_taken = 0;       // of those of the field and line classes, fraction now ball
-  double background_taken = 0;  // of all of them, fraction now ball
-  FloorBallProfile profile;     // invalid when the boxes could not give one (profile_note says why)
+  size_t background = 0;              // background samples checked (every 8th pixel, outside boxes)
+  double field_taken = 0;             // of those of the field and line classes, fraction now ball
+  double background_taken = 0;        // of all of them, fraction now ball
+  int cells_given_back = 0;           // ball cells given back to the field or lines
+  double ball_pixels_given_back = 0;  // the fraction of the boxes' ball pixels they held
+  double ball_coverage = 0;           // of the boxes' inner pixels, the fraction the class holds
+  FloorBallProfile profile;  // invalid when the boxes could not give one (profile_note says why)
   std::string profile_note;
   int width = 0, height = 0;  // the images' size
   int ball_images = 0;

@@ -16,6 +16,7 @@
 
 #include "core/ball_check/ball_check.h"
 #include "core/color_lut/color_model.h"
+#include "hal/host/sequence.h"
 #include "tools/ballvision/annotate_frontend.h"
 #include "tools/ballvision/box_file.h"
 #include "tools/ballvision/box_teach.h"
@@ -33,16 +34,16 @@ namespace {
 
 constexpr char kDetectUsage[] =
     "usage: ballvision detect --lut FILE|builtin [--ball red|orange|yellow]\n"
-    "                         [--calib CALIB --camera persp] [--classifier FILE|off]\n"
+    "                         [--calib CALIB --camera persp] [--classifier FILE|builtin|off]\n"
     "                         --json OUT [--annotate DIR] [--candidates CSV] [--max-balls N]\n"
     "                         IMAGE|DIR...\n"
     "  Runs the device's front end (scan table for the image's size, colour table, regions,\n"
-    "  size-and-place and appearance checks, ball choice) on JPEG or PNG stills up to 1024x1024.\n"
+    "  size-and-place and appearance checks, ball choice) on JPEG or PNG stills up to 1280x1024.\n"
     "  --lut FILE     a table or teach file (`lut teach --boxes` adds the camera's floor-ball\n"
     "                 profile, used for size and place when no --calib is given)\n"
     "  --lut builtin  the built-in model of --ball (default red)\n"
     "  --calib CALIB --camera persp   size and place from the calibrated persp camera\n"
-    "  --classifier   the appearance classifier's weights blob; off: no appearance check\n"
+    "  --classifier   the appearance classifier's weights blob (default builtin); off: none\n"
     "  --json OUT     {\"images\": [{\"file\", \"width\", \"height\", \"balls\": [{\"u\", \"v\",\n"
     "                 \"r\", \"score\"}]}]}, the chosen ball first, at most --max-balls (4)\n"
     "  --annotate DIR one picture per image (scan pixels, regions, the choice)\n"
@@ -50,8 +51,12 @@ constexpr char kDetectUsage[] =
 
 constexpr char kEvalUsage[] =
     "usage: ballvision detect-eval --boxes FILE --images DIR [--protocol half|first5|builtin|all]\n"
-    "                              [--ball red|orange|yellow] [--classifier FILE|off]\n"
+    "                              [--ball red|orange|yellow] [--classifier FILE|builtin|off]\n"
     "                              [--sets PREFIX[,PREFIX...]] [--verbose] [--json OUT]\n"
+    "                              [--candidates CSV]  (every candidate's features, labelled)\n"
+    "       ballvision detect-eval --sim SEQ [--lut FILE|builtin] [--ball NAME] [--calib CALIB]\n"
+    "                              [--classifier FILE|builtin|off] [--candidates CSV]\n"
+    "  (a rendered sequence's persp frames against its truth.csv)\n"
     "  Real-image figures per set (images sharing the name up to the second '_') and pooled:\n"
     "  half     per set, taught (lut teach --boxes) from the even images, tested on the odd ones,\n"
     "           and the other way round\n"
@@ -76,18 +81,7 @@ bool ReadFile(const std::string& path, std::vector<uint8_t>& out, std::string& e
 bool LoadTable(const std::string& lut_arg, const std::string& ball, ColorLut& lut,
                FloorBallProfile& profile, std::string& error) {
   profile = FloorBallProfile{};
-  if (lut_arg == "builtin") {
-    BallName name = BallName::kRed;
-    if (!ball.empty() && !ParseBallName(ball.c_str(), name)) {
-      error = "--ball: got '" + ball + "', expected red, orange or yellow";
-      return false;
-    }
-    if (!BuildLut(BuiltInBallModel(name), lut).ok()) {
-      error = "built-in model of the " + ball + " ball is not valid";
-      return false;
-    }
-    return true;
-  }
+  if (lut_arg == "builtin") return FillBuiltInBallLut(ball.empty() ? "red" : ball, lut, error);
   std::vector<uint8_t> blob;
   if (!ReadFile(lut_arg, blob, error)) return false;
   const Status st = ParseLut(blob, lut, &profile);
@@ -99,16 +93,7 @@ bool LoadTable(const std::string& lut_arg, const std::string& ball, ColorLut& lu
 }
 
 bool LoadClassifier(const std::string& arg, BallClassifier& c, std::string& error) {
-  c.Clear();
-  if (arg.empty() || arg == "off") return true;
-  std::vector<uint8_t> blob;
-  if (!ReadFile(arg, blob, error)) return false;
-  const Status st = c.Parse(blob);
-  if (!st.ok()) {
-    error = arg + ": " + st.message();
-    return false;
-  }
-  return true;
+  return LoadClassifierArg(arg, c, error);
 }
 
 BallFinderConfig StillFinderConfig() {
@@ -149,8 +134,75 @@ void CandidateRows(SafeOutput& out, const std::string& file, const StillResult& 
   }
 }
 
-int Detect(int argc, char** argv) {
-  DetectArgs a;
+// IMAGE|DIR arguments as image files, a directory's in name order.
+bool ExpandInputs(const std::vector<std::string>& inputs, std::vector<std::string>& files,
+                  std::string& error) {
+  for (const std::string& in : inputs) {
+    struct stat st;
+    if (stat(in.c_str(), &st) != 0 || !S_ISDIR(st.st_mode)) {
+      files.push_back(in);
+      continue;
+    }
+    std::vector<std::string> listed;
+    if (!ListStills(in, {}, listed, error)) return false;
+    if (listed.empty()) {
+      error = in + ": no JPEG or PNG image in it";
+      return false;
+    }
+    files.insert(files.end(), listed.begin(), listed.end());
+  }
+  return true;
+}
+
+nlohmann::json BallsJson(const StillResult& r) {
+  nlohmann::json balls = nlohmann::json::array();
+  for (const StillBall& b : r.balls) {
+    balls.push_back({{"u", std::round(b.u_px * 100) / 100},
+                     {"v", std::round(b.v_px * 100) / 100},
+                     {"r", std::round(b.radius_px * 100) / 100},
+                     {"score", std::round(b.score * 1e4) / 1e4}});
+  }
+  return balls;
+}
+
+void PrintStill(const std::string& f, const Still& still, const StillResult& r) {
+  if (r.balls.empty()) {
+    std::printf("%s: %dx%d  no ball  (candidates %u, refused by place %u, by look %u)\n", f.c_str(),
+                still.width, still.height, r.stats.candidates, r.stats.refused_place,
+                r.stats.refused_look);
+    return;
+  }
+  std::printf(
+      "%s: %dx%d  ball (%.1f, %.1f) r %.1f score %.3f  (+%zu more; refused by place %u, by look "
+      "%u)\n",
+      f.c_str(), still.width, still.height, r.balls[0].u_px, r.balls[0].v_px, r.balls[0].radius_px,
+      r.balls[0].score, r.balls.size() - 1, r.stats.refused_place, r.stats.refused_look);
+}
+
+bool AnnotateStill(const std::string& dir, const std::string& f, const Still& still,
+                   const StillResult& r, const ColorLut& lut, const StillDetector& detector,
+                   std::string& error) {
+  BallDetection det;
+  if (!r.balls.empty()) {
+    det.found = true;
+    det.u_px = r.balls[0].u_px;
+    det.v_px = r.balls[0].v_px;
+    det.radius_px = r.balls[0].radius_px;
+  }
+  const std::string base = f.substr(f.find_last_of('/') + 1);
+  return AnnotateFrontEnd(still.image.view(), lut, detector.scan(), detector.finder(), nullptr, det,
+                          dir + "/" + base + ".png", &error, 1);
+}
+
+// What detect runs with, loaded and checked.
+struct DetectInputs {
+  FloorBallProfile profile;
+  BallClassifier classifier;
+  RigCalibration cal;
+  std::vector<std::string> files;
+};
+
+int ParseDetect(int argc, char** argv, DetectArgs& a, ColorLut& lut, DetectInputs& in) {
   ArgParser p("ballvision detect", kDetectUsage);
   p.Text("--lut", a.lut)
       .Text("--ball", a.ball)
@@ -174,67 +226,44 @@ int Detect(int argc, char** argv) {
     return p.UsageError("--ball chooses a built-in model: it needs --lut builtin");
   }
   std::string error;
-  if (!CheckOutputPath(a.json, error) ||
-      (!a.candidates.empty() && !CheckOutputPath(a.candidates, error))) {
+  const bool ok = CheckOutputPath(a.json, error) &&
+                  (a.candidates.empty() || CheckOutputPath(a.candidates, error)) &&
+                  LoadTable(a.lut, a.ball, lut, in.profile, error) &&
+                  LoadClassifier(a.classifier, in.classifier, error) &&
+                  (a.calib.empty() || LoadCalibrationFile(a.calib, in.cal, error)) &&
+                  ExpandInputs(a.inputs, in.files, error);
+  if (ok && !a.calib.empty() && !in.cal.persp.valid) error = a.calib + " has no persp camera";
+  if (!ok || !error.empty()) {
     std::fprintf(stderr, "ballvision detect: %s\n", error.c_str());
     return 1;
   }
+  return -1;
+}
+
+int Detect(int argc, char** argv) {
+  DetectArgs a;
   static ColorLut lut;
-  FloorBallProfile profile;
-  BallClassifier classifier;
-  RigCalibration cal;
-  if (!LoadTable(a.lut, a.ball, lut, profile, error) ||
-      !LoadClassifier(a.classifier, classifier, error) ||
-      (!a.calib.empty() && !LoadCalibrationFile(a.calib, cal, error))) {
-    std::fprintf(stderr, "ballvision detect: %s\n", error.c_str());
-    return 1;
-  }
-  if (!a.calib.empty() && !cal.persp.valid) {
-    std::fprintf(stderr, "ballvision detect: %s has no persp camera\n", a.calib.c_str());
-    return 1;
-  }
-  std::vector<std::string> files;
-  for (const std::string& in : a.inputs) {
-    std::vector<std::string> listed;
-    struct stat st;
-    if (stat(in.c_str(), &st) == 0 && S_ISDIR(st.st_mode)) {
-      if (!ListStills(in, {}, listed, error)) {
-        std::fprintf(stderr, "ballvision detect: %s\n", error.c_str());
-        return 1;
-      }
-      if (listed.empty()) {
-        std::fprintf(stderr, "ballvision detect: %s: no JPEG or PNG image in it\n", in.c_str());
-        return 1;
-      }
-      files.insert(files.end(), listed.begin(), listed.end());
-    } else {
-      files.push_back(in);
-    }
-  }
+  DetectInputs in;
+  if (const int rc = ParseDetect(argc, argv, a, lut, in); rc >= 0) return rc;
+  std::string error;
   DetectSetup setup;
   setup.lut = &lut;
-  setup.profile = profile;
-  setup.persp = a.calib.empty() ? nullptr : &cal.persp;
-  setup.classifier = &classifier;
+  setup.profile = in.profile;
+  setup.persp = a.calib.empty() ? nullptr : &in.cal.persp;
+  setup.classifier = &in.classifier;
   setup.finder = StillFinderConfig();
   setup.max_balls = a.max_balls;
   StillDetector detector;
-  if (!detector.Init(setup, error)) {
+  SafeOutput cand;
+  if (!detector.Init(setup, error) || (!a.candidates.empty() && !cand.Open(a.candidates, error))) {
     std::fprintf(stderr, "ballvision detect: %s\n", error.c_str());
     return 1;
   }
-  SafeOutput cand;
-  if (!a.candidates.empty()) {
-    if (!cand.Open(a.candidates, error)) {
-      std::fprintf(stderr, "ballvision detect: %s\n", error.c_str());
-      return 1;
-    }
-    CandidateHeader(cand);
-  }
+  if (cand.is_open()) CandidateHeader(cand);
   InstallInterruptHandlers();
   nlohmann::json images = nlohmann::json::array();
   int with_ball = 0;
-  for (const std::string& f : files) {
+  for (const std::string& f : in.files) {
     if (InterruptSignal()) {
       ReportInterrupt("ballvision detect");
       std::fprintf(stderr, "ballvision detect: %s not written\n", a.json.c_str());
@@ -242,49 +271,16 @@ int Detect(int argc, char** argv) {
     }
     Still still;
     StillResult r;
-    if (!LoadStill(f, still, error) ||
-        !detector.Detect(still.image, r, !a.candidates.empty(), error)) {
+    if (!LoadStill(f, still, error) || !detector.Detect(still.image, r, cand.is_open(), error) ||
+        (!a.annotate.empty() && !AnnotateStill(a.annotate, f, still, r, lut, detector, error))) {
       std::fprintf(stderr, "ballvision detect: %s\n", error.c_str());
       std::fprintf(stderr, "ballvision detect: %s not written\n", a.json.c_str());
       return 1;
     }
-    nlohmann::json balls = nlohmann::json::array();
-    for (const StillBall& b : r.balls) {
-      balls.push_back({{"u", std::round(b.u_px * 100) / 100},
-                       {"v", std::round(b.v_px * 100) / 100},
-                       {"r", std::round(b.radius_px * 100) / 100},
-                       {"score", std::round(b.score * 1e4) / 1e4}});
-    }
     images.push_back(
-        {{"file", f}, {"width", still.width}, {"height", still.height}, {"balls", balls}});
+        {{"file", f}, {"width", still.width}, {"height", still.height}, {"balls", BallsJson(r)}});
     with_ball += !r.balls.empty();
-    if (r.balls.empty()) {
-      std::printf("%s: %dx%d  no ball  (candidates %u, refused by place %u, by look %u)\n",
-                  f.c_str(), still.width, still.height, r.stats.candidates, r.stats.refused_place,
-                  r.stats.refused_look);
-    } else {
-      std::printf(
-          "%s: %dx%d  ball (%.1f, %.1f) r %.1f score %.3f  (+%zu more; refused by place "
-          "%u, by look %u)\n",
-          f.c_str(), still.width, still.height, r.balls[0].u_px, r.balls[0].v_px,
-          r.balls[0].radius_px, r.balls[0].score, r.balls.size() - 1, r.stats.refused_place,
-          r.stats.refused_look);
-    }
-    if (!a.annotate.empty()) {
-      BallDetection det;
-      if (!r.balls.empty()) {
-        det.found = true;
-        det.u_px = r.balls[0].u_px;
-        det.v_px = r.balls[0].v_px;
-        det.radius_px = r.balls[0].radius_px;
-      }
-      const std::string base = f.substr(f.find_last_of('/') + 1);
-      if (!AnnotateFrontEnd(still.image.view(), lut, detector.scan(), detector.finder(), nullptr,
-                            det, a.annotate + "/" + base + ".png", &error, 1)) {
-        std::fprintf(stderr, "ballvision detect: %s\n", error.c_str());
-        return 1;
-      }
-    }
+    PrintStill(f, still, r);
     if (cand.is_open()) CandidateRows(cand, f, r);
   }
   const nlohmann::json doc = {{"images", images}};
@@ -293,9 +289,10 @@ int Detect(int argc, char** argv) {
     std::fprintf(stderr, "ballvision detect: %s\n", error.c_str());
     return 1;
   }
-  std::printf("%zu images, a ball in %d; geometry: %s; classifier: %s; wrote %s\n", files.size(),
-              with_ball, profile.valid || !a.calib.empty() ? "yes" : "none",
-              classifier.loaded() ? "on" : "off", a.json.c_str());
+  std::printf("%zu images, a ball in %d; size and place: %s; classifier: %s; wrote %s\n",
+              in.files.size(), with_ball,
+              !a.calib.empty() ? "calibration" : (in.profile.valid ? "teach profile" : "none"),
+              in.classifier.loaded() ? "on" : "off", a.json.c_str());
   return 0;
 }
 
@@ -453,79 +450,46 @@ bool TeachAndTest(const EvalContext& ctx, const std::string& label,
     return true;
   }
   if (ctx.verbose) {
-    std::printf("    %s: %d ball cells, %.3f %% of the field taken; profile %s\n", label.c_str(),
-                t.ball_cells, 100.0 * t.field_taken,
-                t.profile.valid ? "learned" : t.profile_note.c_str());
+    std::printf(
+        "    %s: %d ball cells holding %.0f %% of the boxes, %.3f %% of the field taken; "
+        "profile %s\n",
+        label.c_str(), t.ball_cells, 100.0 * t.ball_coverage, 100.0 * t.field_taken,
+        t.profile.valid ? "learned" : t.profile_note.c_str());
   }
   return RunTest(ctx, *t.table, t.profile, test, s, error);
 }
 
-int DetectEval(int argc, char** argv) {
-  std::string boxes, images_dir, protocol = "all", ball = "yellow", classifier_arg, sets_arg, json;
-  std::string candidates_path;
-  bool verbose = false;
-  ArgParser p("ballvision detect-eval", kEvalUsage);
-  p.Text("--boxes", boxes)
-      .Text("--images", images_dir)
-      .Text("--protocol", protocol)
-      .Text("--ball", ball)
-      .Text("--classifier", classifier_arg)
-      .Text("--sets", sets_arg)
-      .Text("--json", json)
-      .Text("--candidates", candidates_path)
-      .Flag("--verbose", verbose)
-      .Required("--boxes")
-      .Required("--images");
-  if (const int rc = p.Parse(argc, argv); rc >= 0) return rc;
-  if (protocol != "half" && protocol != "first5" && protocol != "builtin" && protocol != "all") {
-    return p.UsageError("--protocol: got '" + protocol +
-                        "', expected half, first5, builtin or all");
-  }
+// A rendered sequence's persp frames (training data and figures for renders): the ball is
+// where truth.csv puts its visible silhouette; a candidate is the ball within max(3 px, its
+// radius) of it.
+int SimEval(const std::string& dir, const std::string& lut_arg, const std::string& ball,
+            const std::string& calib, const BallClassifier& classifier,
+            const std::string& candidates_path, bool verbose) {
   std::string error;
-  if (!json.empty() && !CheckOutputPath(json, error)) {
+  host::Sequence seq;
+  std::vector<lut::SimTruth> truth;
+  static ColorLut lut;
+  FloorBallProfile profile;
+  RigCalibration cal;
+  if (!host::LoadSequence(dir, seq, error) || !lut::LoadSimTruth(dir, truth, error) ||
+      !LoadTable(lut_arg, ball, lut, profile, error) ||
+      (!calib.empty() && !LoadCalibrationFile(calib, cal, error))) {
     std::fprintf(stderr, "ballvision detect-eval: %s\n", error.c_str());
     return 1;
   }
-  std::vector<AnnotatedImage> all;
-  BallClassifier classifier;
-  static ColorLut builtin;
-  FloorBallProfile no_profile;
-  if (!LoadAnnotations(boxes, images_dir, all, error) ||
-      !LoadClassifier(classifier_arg, classifier, error) ||
-      (protocol == "builtin" || protocol == "all"
-           ? !LoadTable("builtin", ball, builtin, no_profile, error)
-           : false)) {
+  std::map<int64_t, const lut::SimTruth*> by_index;
+  for (const lut::SimTruth& t : truth) by_index[t.index] = &t;
+  DetectSetup setup;
+  setup.lut = &lut;
+  setup.profile = profile;
+  setup.persp = calib.empty() ? nullptr : &cal.persp;
+  setup.classifier = &classifier;
+  setup.finder = StillFinderConfig();
+  StillDetector detector;
+  if (!detector.Init(setup, error)) {
     std::fprintf(stderr, "ballvision detect-eval: %s\n", error.c_str());
     return 1;
   }
-  // Sets, each in name order.
-  std::map<std::string, std::vector<AnnotatedImage>> sets;
-  std::vector<std::string> wanted;
-  for (size_t a = 0; a < sets_arg.size();) {
-    const size_t b = sets_arg.find(',', a);
-    wanted.push_back(sets_arg.substr(a, b == std::string::npos ? std::string::npos : b - a));
-    a = b == std::string::npos ? sets_arg.size() : b + 1;
-  }
-  for (const AnnotatedImage& im : all) {
-    const std::string set = ImageSet(im.name);
-    if (!wanted.empty() && std::none_of(wanted.begin(), wanted.end(), [&](const std::string& w) {
-          return set.rfind(w, 0) == 0;
-        })) {
-      continue;
-    }
-    sets[set].push_back(im);
-  }
-  if (sets.empty()) {
-    std::fprintf(stderr, "ballvision detect-eval: no image of the sets %s in %s\n",
-                 sets_arg.c_str(), boxes.c_str());
-    return 1;
-  }
-  for (auto& [name, v] : sets) {
-    std::sort(v.begin(), v.end(),
-              [](const AnnotatedImage& x, const AnnotatedImage& y) { return x.name < y.name; });
-  }
-  InstallInterruptHandlers();
-  EvalContext ctx{boxes, &classifier, verbose};
   SafeOutput cand;
   if (!candidates_path.empty()) {
     if (!cand.Open(candidates_path, error)) {
@@ -534,14 +498,152 @@ int DetectEval(int argc, char** argv) {
     }
     cand << "protocol,set,image,countable,box,";
     CandidateHeader(cand);
+  }
+  int frames = 0, with_ball = 0, found = 0, false_frames = 0;
+  std::vector<float> err;
+  for (const host::SequenceEntry& e : seq.entries) {
+    if (e.persp_path.empty() || !by_index.count(e.index)) continue;
+    const lut::SimTruth& t = *by_index[e.index];
+    lut::Image img;
+    StillResult r;
+    if (!lut::LoadImage(e.persp_path, img, error) ||
+        !detector.Detect(img, r, cand.is_open(), error)) {
+      std::fprintf(stderr, "ballvision detect-eval: %s\n", error.c_str());
+      return 1;
+    }
+    ++frames;
+    const bool ball_there = t.visible[1];
+    with_ball += ball_there;
+    const float tr = std::sqrt(std::max(t.area[1], 1.0f) / 3.14159265f);
+    auto on_ball = [&](float u, float v, float* d = nullptr) {
+      const float dist = std::hypot(u - t.cu[1], v - t.cv[1]);
+      if (d != nullptr) *d = dist;
+      return t.visible[1] && dist <= std::max(3.0f, tr);
+    };
+    if (!r.balls.empty()) {
+      float d = 0;
+      if (on_ball(r.balls[0].u_px, r.balls[0].v_px, &d)) {
+        ++found;
+        err.push_back(d);
+      } else {
+        ++false_frames;
+        if (verbose) {
+          std::printf("    %lld: FALSE at (%.0f, %.0f) r %.1f\n", static_cast<long long>(e.index),
+                      r.balls[0].u_px, r.balls[0].v_px, r.balls[0].radius_px);
+        }
+      }
+    }
+    if (cand.is_open()) {
+      for (const StillCandidate& c : r.candidates) {
+        char buf[200];
+        std::snprintf(buf, sizeof buf, "sim,%s,%lld,%d,%d,", dir.c_str(),
+                      static_cast<long long>(e.index), ball_there ? 1 : 0,
+                      on_ball(c.shape.u_px, c.shape.v_px) ? 0 : -1);
+        cand << buf;
+        StillResult one;
+        one.candidates.push_back(c);
+        CandidateRows(cand, "", one);
+      }
+    }
+  }
+  if (cand.is_open() && !cand.Commit(error)) {
+    std::fprintf(stderr, "ballvision detect-eval: %s\n", error.c_str());
+    return 1;
+  }
+  std::printf(
+      "%s persp: frames %d, ball visible in %d, found %d (%.1f %%), false %d (%.1f %%), "
+      "centre err median %.2f p90 %.2f px\n",
+      dir.c_str(), frames, with_ball, found, with_ball ? 100.0 * found / with_ball : 0.0,
+      false_frames, frames ? 100.0 * false_frames / frames : 0.0, Percentile(err, 0.5f),
+      Percentile(err, 0.9f));
+  return 0;
+}
+
+using ImageSets = std::map<std::string, std::vector<AnnotatedImage>>;
+
+// The images by set (those whose set name starts with one of `sets_arg`'s prefixes; all when
+// empty), each set in name order.
+ImageSets GroupSets(const std::vector<AnnotatedImage>& all, const std::string& sets_arg) {
+  std::vector<std::string> wanted;
+  for (size_t a = 0; a < sets_arg.size();) {
+    const size_t b = sets_arg.find(',', a);
+    wanted.push_back(sets_arg.substr(a, b == std::string::npos ? std::string::npos : b - a));
+    a = b == std::string::npos ? sets_arg.size() : b + 1;
+  }
+  ImageSets sets;
+  for (const AnnotatedImage& im : all) {
+    const std::string set = ImageSet(im.name);
+    if (wanted.empty() || std::any_of(wanted.begin(), wanted.end(),
+                                      [&](const std::string& w) { return set.rfind(w, 0) == 0; })) {
+      sets[set].push_back(im);
+    }
+  }
+  for (auto& [name, v] : sets) {
+    std::sort(v.begin(), v.end(),
+              [](const AnnotatedImage& x, const AnnotatedImage& y) { return x.name < y.name; });
+  }
+  return sets;
+}
+
+// One protocol on one set.
+bool RunProtocol(EvalContext& ctx, const std::string& proto, const std::string& name,
+                 const std::vector<AnnotatedImage>& images, const ColorLut& builtin, Score& s,
+                 std::string& error) {
+  ctx.label = proto + "," + name;
+  if (proto == "half") {
+    const auto even = SplitImages(images, "even"), odd = SplitImages(images, "odd");
+    return TeachAndTest(ctx, name + " even->odd", even, odd, s, error) &&
+           TeachAndTest(ctx, name + " odd->even", odd, even, s, error);
+  }
+  if (proto == "first5") {
+    std::vector<AnnotatedImage> train, test;
+    for (const AnnotatedImage& im : images) {
+      (train.size() < 5 && im.BallCount() > 0 ? train : test).push_back(im);
+    }
+    return TeachAndTest(ctx, name + " first 5", train, test, s, error);
+  }
+  return RunTest(ctx, builtin, FloorBallProfile{}, images, s, error);
+}
+
+struct EvalArgs {
+  std::string boxes, images_dir, protocol = "all", ball = "yellow", classifier, sets, json;
+  std::string candidates, sim, lut = "builtin", calib;
+  bool verbose = false;
+};
+
+int BoxEval(const EvalArgs& a) {
+  std::string error;
+  std::vector<AnnotatedImage> all;
+  BallClassifier classifier;
+  static ColorLut builtin;
+  FloorBallProfile no_profile;
+  const bool ok = (a.json.empty() || CheckOutputPath(a.json, error)) &&
+                  LoadAnnotations(a.boxes, a.images_dir, all, error) &&
+                  LoadClassifier(a.classifier, classifier, error) &&
+                  LoadTable("builtin", a.ball, builtin, no_profile, error);
+  const ImageSets sets = ok ? GroupSets(all, a.sets) : ImageSets{};
+  if (ok && sets.empty()) error = "no image of the sets " + a.sets + " in " + a.boxes;
+  if (!ok || sets.empty()) {
+    std::fprintf(stderr, "ballvision detect-eval: %s\n", error.c_str());
+    return 1;
+  }
+  InstallInterruptHandlers();
+  EvalContext ctx{a.boxes, &classifier, a.verbose};
+  SafeOutput cand;
+  if (!a.candidates.empty()) {
+    if (!cand.Open(a.candidates, error)) {
+      std::fprintf(stderr, "ballvision detect-eval: %s\n", error.c_str());
+      return 1;
+    }
+    cand << "protocol,set,image,countable,box,";
+    CandidateHeader(cand);
     ctx.candidates = &cand;
   }
   nlohmann::json out = nlohmann::json::object();
-  const bool all_protocols = protocol == "all";
   for (const std::string proto : {"half", "first5", "builtin"}) {
-    if (!all_protocols && protocol != proto) continue;
+    if (a.protocol != "all" && a.protocol != proto) continue;
     std::printf("%s%s:\n", proto.c_str(),
-                proto == "builtin" ? (" (" + ball + " ball)").c_str() : "");
+                proto == "builtin" ? (" (" + a.ball + " ball)").c_str() : "");
     Score pooled;
     nlohmann::json per_set = nlohmann::json::object();
     for (const auto& [name, images] : sets) {
@@ -550,22 +652,7 @@ int DetectEval(int argc, char** argv) {
         return InterruptExitCode();
       }
       Score s;
-      bool ok = true;
-      ctx.label = std::string(proto) + "," + name;
-      if (proto == "half") {
-        const auto even = SplitImages(images, "even"), odd = SplitImages(images, "odd");
-        ok = TeachAndTest(ctx, name + " even->odd", even, odd, s, error) &&
-             TeachAndTest(ctx, name + " odd->even", odd, even, s, error);
-      } else if (proto == "first5") {
-        std::vector<AnnotatedImage> train, test;
-        for (const AnnotatedImage& im : images) {
-          (train.size() < 5 && im.BallCount() > 0 ? train : test).push_back(im);
-        }
-        ok = TeachAndTest(ctx, name + " first 5", train, test, s, error);
-      } else {
-        ok = RunTest(ctx, builtin, no_profile, images, s, error);
-      }
-      if (!ok) {
+      if (!RunProtocol(ctx, proto, name, images, builtin, s, error)) {
         std::fprintf(stderr, "ballvision detect-eval: %s\n", error.c_str());
         return 1;
       }
@@ -576,12 +663,51 @@ int DetectEval(int argc, char** argv) {
     PrintScore("pooled", pooled);
     out[proto] = {{"sets", per_set}, {"pooled", ScoreJson(pooled)}};
   }
-  if ((!json.empty() && !WriteFileAtomic(json, out.dump(1) + "\n", error)) ||
+  if ((!a.json.empty() && !WriteFileAtomic(a.json, out.dump(1) + "\n", error)) ||
       (cand.is_open() && !cand.Commit(error))) {
     std::fprintf(stderr, "ballvision detect-eval: %s\n", error.c_str());
     return 1;
   }
   return 0;
+}
+
+int DetectEval(int argc, char** argv) {
+  EvalArgs a;
+  ArgParser p("ballvision detect-eval", kEvalUsage);
+  p.Text("--boxes", a.boxes)
+      .Text("--images", a.images_dir)
+      .Text("--protocol", a.protocol)
+      .Text("--ball", a.ball)
+      .Text("--classifier", a.classifier)
+      .Text("--sets", a.sets)
+      .Text("--json", a.json)
+      .Text("--candidates", a.candidates)
+      .Text("--sim", a.sim)
+      .Text("--lut", a.lut)
+      .Text("--calib", a.calib)
+      .Flag("--verbose", a.verbose);
+  if (const int rc = p.Parse(argc, argv); rc >= 0) return rc;
+  if (!a.sim.empty()) {
+    if (!a.boxes.empty()) {
+      return p.UsageError("give --sim SEQ or --boxes FILE --images DIR, not both");
+    }
+    BallClassifier c;
+    std::string err;
+    if (!LoadClassifier(a.classifier, c, err)) {
+      std::fprintf(stderr, "ballvision detect-eval: %s\n", err.c_str());
+      return 1;
+    }
+    return SimEval(a.sim, a.lut, a.ball, a.calib, c, a.candidates, a.verbose);
+  }
+  if (a.boxes.empty() || a.images_dir.empty()) {
+    return p.UsageError("give --boxes FILE --images DIR (or --sim SEQ)");
+  }
+  if (a.protocol != "half" && a.protocol != "first5" && a.protocol != "builtin" &&
+      a.protocol != "all") {
+    return p.UsageError("--protocol: got '" + a.protocol +
+                        "', expected half, first5, builtin or all");
+  }
+  return BoxEval(a);
 }
 
 }  // namespace

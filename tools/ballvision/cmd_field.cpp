@@ -31,13 +31,14 @@ constexpr double kGoalRangeM = 5.0;  // goal mouths this near (centre) count as 
 constexpr double kGoalHitM = 0.75;   // a goal found within this of the true mouth segment
 
 struct FieldArgs {
-  std::string seq, calib, lut, robots;
+  std::string seq, calib, lut, robots, ball, classifier;
   int half = 0;
   bool per_frame = false, stills = false, no_field = false, adapt = false;
 };
 
 constexpr char kFieldUsage[] =
-    "usage: ballvision eval-field SEQ --calib FILE [--lut FILE] [--robots CSV]\n"
+    "usage: ballvision eval-field SEQ --calib FILE [--lut FILE] [--ball NAME] [--robots CSV]\n"
+    "       [--classifier FILE|builtin|off]\n"
     "       [--half -1|0|1] [--stills] [--no-field] [--per-frame]\n"
     "       [--adapt]  (online colour adaptation from the built-in model, as on the device)\n"
     "  field figures against SEQ/truth.csv: pose (from an unknown start), line\n"
@@ -416,6 +417,8 @@ int ParseFieldArgs(int argc, char** argv, FieldArgs& a) {
       .Text("--calib", a.calib)
       .Required("--calib")
       .Text("--lut", a.lut)
+      .Text("--ball", a.ball)
+      .Text("--classifier", a.classifier)
       .Text("--robots", a.robots)
       .Int("--half", -1, 1, a.half)
       .Flag("--stills", a.stills)
@@ -429,6 +432,7 @@ struct FieldInputs {
   host::Sequence seq;
   RigCalibration cal;
   ColorLut lut;
+  BallClassifier classifier;
   std::string lut_used;  // what LoadLutOrDefault took
   std::map<uint64_t, TruthRow> truth;
   std::map<int64_t, std::vector<RobotTruth>> robots;
@@ -436,7 +440,8 @@ struct FieldInputs {
 
 bool LoadFieldInputs(const FieldArgs& a, FieldInputs& in, std::string& err) {
   return host::LoadSequence(a.seq, in.seq, err) && LoadCalibrationFile(a.calib, in.cal, err) &&
-         LoadLutOrDefault(a.lut, a.calib, in.lut, in.lut_used, err) &&
+         LoadLutOrDefault(a.lut, a.calib, in.lut, in.lut_used, err, a.ball) &&
+         LoadClassifierArg(a.classifier, in.classifier, err) &&
          LoadTruth(a.seq + "/truth.csv", in.truth, err) &&
          (a.robots.empty() || LoadRobots(a.robots, in.robots, err));
 }
@@ -516,11 +521,14 @@ int CmdEvalField(int argc, char** argv) {
                    "builtin): a table file does not carry the model it was built from\n");
       return 2;
     }
-    adapter.Start(BallColorModel{}, &in.lut);
+    BallName b = BallName::kRed;
+    ParseBallName(a.ball.empty() ? "red" : a.ball.c_str(), b);
+    adapter.Start(BuiltInBallModel(b), &in.lut);
   }
   auto pipeline = std::make_unique<Pipeline>();
   PipelineConfig config;
   config.field_features = !a.no_field;
+  config.classifier = in.classifier.loaded() ? &in.classifier : nullptr;
   Status st = pipeline->Init(in.cal, in.lut, config);
   if (a.adapt) pipeline->SetColorAdapter(&adapter);
   if (st.ok() && a.half != 0) st = pipeline->SetFieldHalf(static_cast<int8_t>(a.half));

@@ -140,6 +140,29 @@ bool ParseTeach(const std::string& val, Teach& t, std::string& error) {
   return parts.size() <= 3 || ArgNumberAs("--teach", parts[3], 0, 10, t.tol, error);
 }
 
+// The table trainer's options (`lut train`; `lut eval` accepts and ignores them).
+void AddTrainOptions(ArgParser& p, Args& a) {
+  p.Number("--ratio", 0, 1e6, a.train.ratio)
+      .Custom("--shade",
+              [&a](const std::string& v, std::string& error) {
+                double lo = 0, hi = 0;
+                if (!ArgNumberPair("--shade", v, ',', 0.01, 100, lo, hi, error)) return false;
+                a.train.shade_min = static_cast<float>(lo);
+                a.train.shade_max = static_cast<float>(hi);
+                return true;
+              })
+      .Number("--gauss", 0, 1e6, a.train.gauss_d2)
+      .Number("--gauss-veto", 0, 1e6, a.train.gauss_veto)
+      .Number("--min-weight", 0, 1e9, a.train.min_ball_weight)
+      .Int("--smooth", 0, 8, a.train.smooth)
+      .Custom("--teach", [&a](const std::string& v, std::string& error) {
+        Teach t;
+        if (!ParseTeach(v, t, error)) return false;
+        a.teach.push_back(t);
+        return true;
+      });
+}
+
 // One option set for train and eval. Source modifiers (--camera, --every, --phase, --split)
 // apply to the --sim / --boxes after them: the handlers run in command-line order.
 int ParseArgs(int argc, char** argv, const std::string& command, Args& a) {
@@ -220,30 +243,11 @@ int ParseArgs(int argc, char** argv, const std::string& command, Args& a) {
                 a.boxes.back().images = v;
                 return true;
               })
-      .Number("--ratio", 0, 1e6, a.train.ratio)
-      .Custom("--shade",
-              [&a](const std::string& v, std::string& error) {
-                double lo = 0, hi = 0;
-                if (!ArgNumberPair("--shade", v, ',', 0.01, 100, lo, hi, error)) return false;
-                a.train.shade_min = static_cast<float>(lo);
-                a.train.shade_max = static_cast<float>(hi);
-                return true;
-              })
-      .Number("--gauss", 0, 1e6, a.train.gauss_d2)
-      .Number("--gauss-veto", 0, 1e6, a.train.gauss_veto)
-      .Number("--min-weight", 0, 1e9, a.train.min_ball_weight)
-      .Int("--smooth", 0, 8, a.train.smooth)
       .Number("--min-roundness", 0, 1, a.setup.finder.min_roundness)
-      .Custom("--center",
-              [&](const std::string& v, std::string& error) {
-                return ArgNumberPair("--center", v, ',', 0, 4096, cu, cv, error);
-              })
-      .Custom("--teach", [&a](const std::string& v, std::string& error) {
-        Teach t;
-        if (!ParseTeach(v, t, error)) return false;
-        a.teach.push_back(t);
-        return true;
+      .Custom("--center", [&](const std::string& v, std::string& error) {
+        return ArgNumberPair("--center", v, ',', 0, 4096, cu, cv, error);
       });
+  AddTrainOptions(p, a);
   if (const int rc = p.Parse(argc, argv); rc >= 0) return rc;
   if (!pending.empty()) {
     // Modifiers apply to the sources that follow them; a trailing one would be silently ignored.

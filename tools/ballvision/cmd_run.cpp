@@ -35,7 +35,8 @@ namespace bv::cli {
 namespace {
 
 struct Args {
-  std::string seq, calib, out, lut, annotate, plots, features, paths, sigma_errors;
+  std::string seq, calib, out, lut, annotate, plots, features, paths, sigma_errors, ball;
+  std::string classifier;
   int predict_ms = -1;
   double at_ms = -1;
   double bounce_factor = -1;
@@ -45,10 +46,13 @@ struct Args {
 
 constexpr char kRunUsage[] =
     "usage: ballvision run SEQ --calib FILE [--out states.csv] [--predict-ms N]\n"
-    "       [--lut FILE] [--annotate DIR] [--features DIR] [--stills]\n"
-    "       [--bounce-factor B (0.7)]\n"
+    "       [--lut FILE] [--ball red|orange|yellow] [--classifier FILE|builtin|off]\n"
+    "       [--annotate DIR] [--features DIR] [--stills] [--bounce-factor B (0.7)]\n"
     "  --lut      colour LUT blob, or 'builtin'; default $BV_LUT, then\n"
     "             <calib dir>/luts/*.lut, then the built-in colour model's table\n"
+    "  --ball     the built-in model of this match ball (red: red to orange-red, the default;\n"
+    "             orange; yellow: today's MSL ball)\n"
+    "  --classifier  the persp candidates' appearance classifier (default builtin)\n"
     "  --stills   frames are unrelated stills: no tracking across frames\n"
     "  --features DIR  field features per frame: DIR/lines.csv (index,x,y) and\n"
     "             DIR/obstacles.csv (index,x,y,radius), robot frame, metres\n"
@@ -56,7 +60,8 @@ constexpr char kRunUsage[] =
     "             index,kind,t_us,x,y,z with kind 'path' every 50 ms for 2.5 s and\n"
     "             'contact' for each predicted floor contact (robot frame, metres)\n";
 constexpr char kEvalUsage[] =
-    "usage: ballvision eval SEQ --calib FILE [--lut FILE] [--plots DIR]\n"
+    "usage: ballvision eval SEQ --calib FILE [--lut FILE] [--ball NAME] [--plots DIR]\n"
+    "       [--classifier FILE|builtin|off]\n"
     "       [--predict-ms N (200)] [--at-ms T (prediction plot start)]\n"
     "       [--bounce-factor B (0.7)] [--out states.csv] [--annotate DIR] [--stills]\n"
     "       [--sigma-errors FILE]\n"
@@ -75,6 +80,8 @@ void PipelineOptions(ArgParser& p, Args& a) {
       .Required("--calib")
       .Text("--out", a.out)
       .Text("--lut", a.lut)
+      .Text("--ball", a.ball)
+      .Text("--classifier", a.classifier)
       .Text("--annotate", a.annotate)
       .Flag("--stills", a.stills)
       .Int("--predict-ms", 0, 1000000, a.predict_ms)
@@ -94,6 +101,7 @@ struct Setup {
   host::Sequence seq;
   RigCalibration cal;
   ColorLut lut;
+  BallClassifier classifier;
   std::unique_ptr<Pipeline> pipeline = std::make_unique<Pipeline>();
   PipelineConfig config;
 };
@@ -108,11 +116,13 @@ bool Prepare(const Args& a, const char* cmd, Setup& s) {
     std::fprintf(stderr, "ballvision %s: %s\n", cmd, err.c_str());
     return false;
   }
-  if (!LoadLutOrDefault(a.lut, a.calib, s.lut, used, err)) {
+  if (!LoadLutOrDefault(a.lut, a.calib, s.lut, used, err, a.ball) ||
+      !LoadClassifierArg(a.classifier, s.classifier, err)) {
     std::fprintf(stderr, "ballvision %s: %s\n", cmd, err.c_str());
     return false;
   }
   std::fprintf(stderr, "colour LUT: %s\n", used.c_str());
+  s.config.classifier = s.classifier.loaded() ? &s.classifier : nullptr;
   if (a.predict_ms >= 0) s.config.predict_ahead_us = static_cast<uint32_t>(a.predict_ms) * 1000u;
   if (a.bounce_factor > 0) s.config.filter.bounce_factor = static_cast<float>(a.bounce_factor);
   const Status st = s.pipeline->Init(s.cal, s.lut, s.config);
@@ -1125,6 +1135,13 @@ int CmdDemo(int argc, char** argv) {
   FillBuiltInLut(*lut);
   auto pipeline = std::make_unique<Pipeline>();
   PipelineConfig config;
+  BallClassifier classifier;
+  std::string load_err;
+  if (!LoadClassifierArg("builtin", classifier, load_err)) {
+    std::fprintf(stderr, "ballvision demo: %s\n", load_err.c_str());
+    return 1;
+  }
+  config.classifier = &classifier;
   const Status st = pipeline->Init(cal, *lut, config);
   if (!st.ok()) {
     std::fprintf(stderr, "ballvision demo: pipeline: %s\n", st.message());

@@ -435,36 +435,4 @@ bool TeachSequence(const std::string& dir, const FinderSetup& setup, const Teach
   return CheckAgainstField(got.ball.size(), got.background, out, error);
 }
 
-bool TeachBoxes(const std::vector<BoxImage>& images, const BallColorModel& start, TeachReport& out,
-                std::string& error) {
-  out = TeachReport{};
-  std::vector<Yuv> ball, background;
-  for (const BoxImage& bi : images) {
-    Image img;
-    if (!LoadImage(bi.path, img, error)) return false;
-    const YuyvImage view = img.view();
-    for (int v = 0; v < img.height; ++v) {
-      for (int u = 0; u < img.width; ++u) {
-        bool in_ball = false, near_box = false;
-        for (const Trainer::Box& b : bi.balls) {
-          const float cu = 0.5f * (b.u0 + b.u1), cv = 0.5f * (b.v0 + b.v1);
-          const float ru = 0.4f * (b.u1 - b.u0), rv = 0.4f * (b.v1 - b.v0);
-          const float du = (u - cu) / std::max(ru, 0.5f), dv = (v - cv) / std::max(rv, 0.5f);
-          in_ball |= du * du + dv * dv <= 1.0f;
-          near_box |= u >= b.u0 - 4 && u <= b.u1 + 4 && v >= b.v0 - 4 && v <= b.v1 + 4;
-        }
-        if (in_ball) {
-          ball.push_back(view.at(u, v));
-        } else if (!near_box && v % kBackgroundStride == 3 && u % kBackgroundStride == 0) {
-          background.push_back(view.at(u, v));
-        }
-      }
-    }
-    out.frames[1] += bi.balls.empty() ? 0 : 1;
-  }
-  float hue_mean = 0;
-  if (!FitAndNarrow(ball, background, start, out.model, hue_mean, error)) return false;
-  return CheckAgainstField(ball.size(), background, out, error);
-}
-
 }  // namespace bv::lut

@@ -60,10 +60,4 @@ void NarrowAgainstBackground(const std::vector<Yuv>& ball, const std::vector<Yuv
 bool TeachSequence(const std::string& dir, const FinderSetup& setup, const TeachOptions& opt,
                    TeachReport& out, std::string& error);
 
-/// Teach from annotated stills: the ball pixels are the boxes' inscribed ellipses shrunk to 0.8
-/// (the outline mixes with the surroundings), the background every 8th pixel outside all boxes
-/// grown by 4 px. Same fit, narrowing and field check as TeachSequence.
-bool TeachBoxes(const std::vector<BoxImage>& images, const BallColorModel& start, TeachReport& out,
-                std::string& error);
-
 }  // namespace bv::lut

@@ -16,9 +16,49 @@ void FillBuiltInLut(ColorLut& lut) {
   BuildLut(BallColorModel{}, lut).IgnoreError();
 }
 
+bool FillBuiltInBallLut(const std::string& name, ColorLut& lut, std::string& error) {
+  BallName b = BallName::kRed;
+  if (!ParseBallName(name.c_str(), b)) {
+    error = "--ball: got '" + name + "', expected red, orange or yellow";
+    return false;
+  }
+  if (!BuildLut(BuiltInBallModel(b), lut).ok()) {
+    error = "the built-in model of the " + name + " ball is not valid";
+    return false;
+  }
+  return true;
+}
+
+bool LoadClassifierArg(const std::string& arg, BallClassifier& c, std::string& error) {
+  c.Clear();
+  if (arg == "off") return true;
+  if (arg.empty() || arg == "builtin") {
+    const Status st = c.Parse(BuiltInBallClassifierBlob());
+    if (!st.ok()) error = std::string("built-in ball classifier: ") + st.message();
+    return st.ok();
+  }
+  std::vector<uint8_t> blob;
+  if (!ReadFileBytes(arg, blob, error)) return false;
+  const Status st = c.Parse(blob);
+  if (!st.ok()) {
+    error = arg + ": " + st.message();
+    return false;
+  }
+  return true;
+}
+
 bool LoadLutOrDefault(const std::string& path, const std::string& calib_path, ColorLut& lut,
-                      std::string& used, std::string& error) {
+                      std::string& used, std::string& error, const std::string& ball) {
   namespace fs = std::filesystem;
+  if (!ball.empty()) {
+    if (!path.empty() && path != "builtin") {
+      error = "--ball chooses a built-in model: it cannot go with --lut " + path;
+      return false;
+    }
+    if (!FillBuiltInBallLut(ball, lut, error)) return false;
+    used = "built-in model of the " + ball + " ball (--ball " + ball + ")";
+    return true;
+  }
   std::string file = path;
   if (file.empty()) {
     if (const char* env = std::getenv("BV_LUT"); env && *env) file = env;
