@@ -13,7 +13,7 @@ PACKAGES=(
   libopencv-dev libpng-dev libjpeg-dev nlohmann-json3-dev
   gcc-arm-none-eabi binutils-arm-none-eabi libnewlib-arm-none-eabi libstdc++-arm-none-eabi-newlib
   qemu-system-arm
-  python3 python3-numpy python3-matplotlib python3-serial
+  python3 python3-numpy python3-matplotlib python3-serial python3-sklearn
   chromium chromium-driver python3-selenium fonts-dejavu-core
   clang libclang-rt-14-dev cppcheck clang-tidy clang-format universal-ctags
 )

@@ -59,6 +59,7 @@ Status BallGeometry::SetProfile(const FloorBallProfile& profile, const BallGeome
 
 namespace {
 constexpr float kMaxSpreadForHeight = 0.3f;
+constexpr float kNearCutMaxHeightM = 0.5f;
 }  // namespace
 
 PlaceVerdict BallGeometry::Check(const CandidateShape& c, BallPlace& out) const {
@@ -466,7 +467,12 @@ CandidateVerdict BallCheck::Evaluate(const YuyvImage& image, const ColorLut& lut
       v.score = std::exp(-raised / config_.raised_prior_m);
     }
   }
-  const bool look = config_.use_look && classifier_ != nullptr && classifier_->loaded();
+  // A near ball low in the view whose centre lies beyond the image border (cut by it, its circle
+  // fitted) shows too little of itself for its look to be judged: a calibrated place decides.
+  const bool centre_inside = image.contains(static_cast<int>(std::lround(c.u_px)),
+                                            static_cast<int>(std::lround(c.v_px)));
+  const bool near_cut = !centre_inside && v.where.known && v.where.height_m < kNearCutMaxHeightM;
+  const bool look = looks() && !near_cut;
   if (!look && features == nullptr) return v;
   BallFeatures local;
   BallFeatures& feat = features != nullptr ? *features : local;

@@ -231,6 +231,10 @@ class BallCheck {
     classifier_ = classifier;
     config_ = config;
   }
+  /// The classifier runs (on candidates whose centre lies inside the image).
+  bool looks() const {
+    return config_.use_look && classifier_ != nullptr && classifier_->loaded();
+  }
   bool active() const {
     return (config_.use_place && geometry_ != nullptr && geometry_->known()) ||
            (config_.use_look && classifier_ != nullptr && classifier_->loaded());

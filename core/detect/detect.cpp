@@ -365,10 +365,12 @@ BallFinder::Choice BallFinder::ChooseBall(const YuyvImage& image, const ColorLut
       classified = v.classified;
     }
     ++choice.candidates;
-    // The classifier's probability when it ran, else the shape and the field around it; times
-    // the place check's prior (1 without one).
+    // The classifier's probability when it ran (an even chance for a candidate it cannot judge),
+    // else the shape and the field around it; times the place check's prior (1 without one).
     float evidence = score;
-    if (!classified) {
+    if (checked && config_.check->looks()) {
+      if (!classified) evidence *= 0.5f;
+    } else {
       evidence *= ShapeEvidence(r) * (0.2f + FieldContext(image, lut, r));
       stats.pixels_read += kContextSamples;
     }

@@ -85,9 +85,11 @@ struct BallFinderConfig {
   // Size, place and look (core/ball_check): a candidate either check refuses is not the ball;
   // without a prediction the others are ranked by its score. Optional; must outlive the finder.
   const BallCheck* check = nullptr;
-  // Added to the classifier's logit of a candidate within 3 sigma of the prediction: a tracked
-  // ball that turns, shades or half hides keeps its track (the classifier decides acquisition).
-  float tracked_logit_bonus = 6.0f;
+  // Added to the classifier's logit of a candidate within 3 sigma of the prediction: the track is
+  // evidence the look alone does not have, and a tracked ball half hidden behind a robot (its
+  // circle fitted across the robot) or deep in shade must keep its track. The classifier decides
+  // acquisition; the place check still applies.
+  float tracked_logit_bonus = 1000.0f;
 };
 
 class BallFinder {
