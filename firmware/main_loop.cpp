@@ -46,7 +46,11 @@ MainLoop::MainLoop(hal::Camera& camera, hal::Uart& uart, hal::Clock& clock, hal:
       upload_buffer_(upload_buffer.size() >= kUploadBufferBytes ? upload_buffer
                                                                 : std::span<uint8_t>()) {
   static_assert(kAdapterOffset % alignof(ColorAdapter) == 0);
-  if (!upload_buffer_.empty()) adapter_ = new (upload_buffer_.data() + kAdapterOffset) ColorAdapter;
+  static_assert(kClassifierOffset % alignof(BallClassifier) == 0);
+  if (!upload_buffer_.empty()) {
+    adapter_ = new (upload_buffer_.data() + kAdapterOffset) ColorAdapter;
+    classifier_ = new (upload_buffer_.data() + kClassifierOffset) BallClassifier;
+  }
 }
 
 BlobState MainLoop::ReadSlotPair(const int (&slots)[2], BlobKind kind, uint16_t max_version,
@@ -99,9 +103,21 @@ BlobState MainLoop::UseBuiltInLut(BlobState stored) {
   return stored == BlobState::kCorrupt ? BlobState::kBuiltInCorrupt : BlobState::kBuiltInMissing;
 }
 
+void MainLoop::LoadClassifier() {
+  if (classifier_ == nullptr) return;
+  std::span<const uint8_t> blob;
+  classifier_uploaded_ = ReadSlotPair(config_.classifier_slots, BlobKind::kBallClassifier,
+                                      kBallClassifierBlobVersion, blob) == BlobState::kOk &&
+                         classifier_->Parse(blob).ok();
+  // The built-in weights are checked like a stored blob (CRC, sizes); they cannot fail to parse
+  // but for a build error, which leaves the look check off rather than the device down.
+  if (!classifier_uploaded_) classifier_->Parse(BuiltInBallClassifierBlob()).IgnoreError();
+}
+
 Status MainLoop::Init() {
   status_ = protocol::StatusReport{};
   const BlobState cal = LoadCalibration();
+  LoadClassifier();
   BlobState lut = LoadLut();
   if (lut != BlobState::kOk) lut = UseBuiltInLut(lut);
   status_.calibration_state = static_cast<uint8_t>(cal);
@@ -118,6 +134,8 @@ Status MainLoop::Init() {
 
 void MainLoop::InitPipeline() {
   ++tables_generation_;  // a scanline capture in progress checks that its samples stayed
+  config_.pipeline.classifier =
+      classifier_ != nullptr && classifier_->loaded() ? classifier_ : nullptr;
   pipeline_ready_ = status_.calibration_state == static_cast<uint8_t>(BlobState::kOk) &&
                     status_.lut_state != static_cast<uint8_t>(BlobState::kMissing) &&
                     status_.lut_state != static_cast<uint8_t>(BlobState::kCorrupt) &&
@@ -131,8 +149,15 @@ void MainLoop::InitPipeline() {
 
 size_t MainLoop::Uploads::capacity(protocol::UploadTarget target) const {
   if (loop_.upload_buffer_.empty()) return 0;
-  return target == protocol::UploadTarget::kCalibration ? kCalibrationBlobMaxBytes
-                                                        : kColorLutBlobBytes;
+  switch (target) {
+    case protocol::UploadTarget::kCalibration:
+      return kCalibrationBlobMaxBytes;
+    case protocol::UploadTarget::kLut:
+      return kColorLutBlobBytes;
+    case protocol::UploadTarget::kClassifier:
+      return kBallClassifierBlobMaxBytes;
+  }
+  return 0;
 }
 
 Status MainLoop::Uploads::Begin(protocol::UploadTarget target, size_t total_len) {
@@ -162,11 +187,16 @@ Status MainLoop::Readback::ReadBlob(protocol::UploadTarget target, uint32_t offs
     snap.valid = false;
     const std::span<uint8_t> buf = m.upload_buffer_.first(kBlobScratchBytes);
     const bool calibration = target == protocol::UploadTarget::kCalibration;
+    const bool classifier = target == protocol::UploadTarget::kClassifier;
     if (calibration && m.status_.calibration_state != static_cast<uint8_t>(BlobState::kOk)) {
       return Status(StatusCode::kNotFound, "read-back: no calibration in use");
     }
-    const Result<size_t> n =
-        calibration ? SerializeCalibration(m.calibration_, buf) : SerializeLut(m.lut_, buf);
+    if (classifier && (m.classifier_ == nullptr || !m.classifier_->loaded())) {
+      return Status(StatusCode::kNotFound, "read-back: no ball classifier in use");
+    }
+    const Result<size_t> n = calibration  ? SerializeCalibration(m.calibration_, buf)
+                             : classifier ? SerializeBallClassifier(m.classifier_->weights(), buf)
+                                          : SerializeLut(m.lut_, buf);
     if (!n.ok()) return Status(StatusCode::kNotFound, n.status().message());
     snap = {true, target, static_cast<uint32_t>(*n), Crc32(buf.first(*n))};
   }
@@ -192,6 +222,14 @@ Status MainLoop::Uploads::Write(protocol::UploadTarget, size_t offset,
 
 void MainLoop::Uploads::Abort(protocol::UploadTarget) { length_ = 0; }
 
+namespace {
+struct SlotsOf {
+  const int* slots;
+  BlobKind kind;
+  uint16_t version;
+};
+}  // namespace
+
 Status MainLoop::Uploads::Commit(protocol::UploadTarget target, uint32_t total_crc32) {
   MainLoop& m = loop_;
   const std::span<const uint8_t> blob = m.upload_buffer_.first(length_);
@@ -200,24 +238,34 @@ Status MainLoop::Uploads::Commit(protocol::UploadTarget target, uint32_t total_c
   if (Crc32(blob) != total_crc32) return Status(StatusCode::kDataLoss, "upload: CRC mismatch");
   // Trial parse into the verification half (placement, not heap) before anything is saved.
   static_assert(sizeof(RigCalibration) <= kBlobScratchBytes &&
-                sizeof(ColorLut) <= kBlobScratchBytes);
+                sizeof(ColorLut) <= kBlobScratchBytes &&
+                sizeof(BallClassifier) <= kBlobScratchBytes);
   static_assert(kBlobScratchBytes % alignof(RigCalibration) == 0 &&
-                kBlobScratchBytes % alignof(ColorLut) == 0);
+                kBlobScratchBytes % alignof(ColorLut) == 0 &&
+                kBlobScratchBytes % alignof(BallClassifier) == 0);
   const bool calibration = target == protocol::UploadTarget::kCalibration;
-  const Status parsed = calibration ? ParseCalibration(blob, *new (verify.data()) RigCalibration)
-                                    : ParseLut(blob, *new (verify.data()) ColorLut);
+  const bool classifier = target == protocol::UploadTarget::kClassifier;
+  const Status parsed = calibration  ? ParseCalibration(blob, *new (verify.data()) RigCalibration)
+                        : classifier ? (new (verify.data()) BallClassifier)->Parse(blob)
+                                     : ParseLut(blob, *new (verify.data()) ColorLut);
   if (!parsed.ok()) return Status(StatusCode::kInvalidArgument, parsed.message());
-  hal::BlobStore store(m.storage_,
-                       calibration ? m.config_.calibration_slots[0] : m.config_.lut_slots[0],
-                       calibration ? m.config_.calibration_slots[1] : m.config_.lut_slots[1],
-                       calibration ? BlobKind::kCalibration : BlobKind::kColorLut,
-                       calibration ? kCalibrationBlobVersion : kColorLutBlobVersion);
+  const SlotsOf where =
+      calibration
+          ? SlotsOf{m.config_.calibration_slots, BlobKind::kCalibration, kCalibrationBlobVersion}
+      : classifier ? SlotsOf{m.config_.classifier_slots, BlobKind::kBallClassifier,
+                             kBallClassifierBlobVersion}
+                   : SlotsOf{m.config_.lut_slots, BlobKind::kColorLut, kColorLutBlobVersion};
+  hal::BlobStore store(m.storage_, where.slots[0], where.slots[1], where.kind, where.version);
   BV_TRY(store.Save(blob, verify));
   // Saved and known to parse: activate.
   if (calibration) {
     BV_TRY(ParseCalibration(blob, m.calibration_));
     m.status_.calibration_id = m.calibration_.calibration_id;
     m.status_.calibration_state = static_cast<uint8_t>(BlobState::kOk);
+  } else if (classifier) {
+    if (m.classifier_ == nullptr) return Status(StatusCode::kUnimplemented, "upload: no buffer");
+    BV_TRY(m.classifier_->Parse(blob));
+    m.classifier_uploaded_ = true;
   } else {
     m.SetAdaptation(false).IgnoreError();  // an uploaded table does not carry its model
     BV_TRY(ParseLut(blob, m.lut_));

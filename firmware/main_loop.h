@@ -30,10 +30,14 @@ inline constexpr size_t kBlobScratchBytes =
     kCalibrationBlobMaxBytes > kColorLutBlobBytes ? kCalibrationBlobMaxBytes : kColorLutBlobBytes;
 
 /// Upload buffer: a staging half for the incoming blob and a verification half (read-back and
-/// the trial parse), then the colour adapter's state (core/color_lut/color_adapt.h); in
-/// external RAM on the boards.
+/// the trial parse), then the colour adapter's state (core/color_lut/color_adapt.h) and the ball
+/// classifier's weights in use (core/ball_check); in external RAM on the boards.
 inline constexpr size_t kAdapterOffset = 2 * kBlobScratchBytes;
-inline constexpr size_t kUploadBufferBytes = kAdapterOffset + sizeof(ColorAdapter);
+inline constexpr size_t kClassifierOffset =
+    (kAdapterOffset + sizeof(ColorAdapter) + alignof(BallClassifier) - 1) /
+    alignof(BallClassifier) * alignof(BallClassifier);
+inline constexpr size_t kUploadBufferBytes = kClassifierOffset + sizeof(BallClassifier);
+static_assert(kBallClassifierBlobMaxBytes <= kBlobScratchBytes);
 
 /// Received bytes decoded per Poll() at most: a full receive ring (2 KB), so commands keep up
 /// with the line while a flood cannot hold up the frame loop.
@@ -87,6 +91,7 @@ struct MainLoopConfig {
   uint32_t status_interval_us = 1000000;  // of exposure time (and of clock time when idle)
   int calibration_slots[2] = {0, 1};      // A/B storage slots (hal/common/blob_store.h)
   int lut_slots[2] = {2, 3};
+  int classifier_slots[2] = {4, 5};  // the ball classifier's weights (built-in when empty)
   /// Capture chunks queued per Poll() at most. At 921600 Bd the queue limit allows ~2 anyway;
   /// this bounds the work where the UART drains faster (QEMU's is instantaneous).
   uint32_t capture_chunks_per_poll = 4;
@@ -147,6 +152,8 @@ class MainLoop {
   protocol::BlobState LoadCalibration();
   protocol::BlobState LoadLut();
   protocol::BlobState UseBuiltInLut(protocol::BlobState stored);
+  /// The classifier's weights from their slots, else the built-in ones.
+  void LoadClassifier();
   /// Loads the current blob of `kind` from an A/B slot pair (hal::BlobStore) into
   /// blob_scratch_ and points `blob` at it; returns the state for the status packet.
   protocol::BlobState ReadSlotPair(const int (&slots)[2], BlobKind kind, uint16_t max_version,
@@ -321,7 +328,11 @@ class MainLoop {
   Readback readback_{*this};
   Snapshot snapshot_;
   ColorAdapter* adapter_ = nullptr;  // in the upload buffer; null without one
-  BallColorModel lut_model_;         // what the table in use was built from, if known
+  // The ball classifier's weights in use (uploaded, else built-in), in the upload buffer; null
+  // without one (no appearance check then).
+  BallClassifier* classifier_ = nullptr;
+  bool classifier_uploaded_ = false;
+  BallColorModel lut_model_;  // what the table in use was built from, if known
   bool lut_model_known_ = false;
   protocol::Decoder rx_;
   protocol::CommandHandler commands_{uploads_,       params_,   &hints_,

@@ -1030,7 +1030,7 @@ TEST_F(MainLoopReadbackTest, RefusalsNameTheProblemAndALaterReadFromZeroWorks) {
   Read(UploadTarget::kLut, 512);          // no snapshot yet
   Read(UploadTarget::kLut, 0, 0);         // length 0
   Read(UploadTarget::kLut, 0, 513);       // beyond a chunk
-  Read(static_cast<UploadTarget>(3), 0);  // unknown target
+  Read(static_cast<UploadTarget>(4), 0);  // unknown target
   Read(UploadTarget::kCalibration, 0);    // nothing in use
   Answers a = Collect();
   EXPECT_TRUE(a.data.empty());

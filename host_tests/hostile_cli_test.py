@@ -565,7 +565,7 @@ class ReadBack(Base):
         self.refused(["readback", GOLDEN, "--out", self.path("t.lut")], 1,
                      "is a recording; a read-back needs a live link")
         self.refused(["readback", GOLDEN, "--out", self.path("t.lut"), "--what", "x"], 2,
-                     "--what: got 'x', expected lut or calibration")
+                     "--what: got 'x', expected lut, calibration or classifier")
 
 if __name__ == "__main__":
     BV = os.path.abspath(sys.argv.pop(1))

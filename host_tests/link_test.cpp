@@ -133,8 +133,8 @@ TEST(LinkMessages, BlobDataRoundTripAndBounds) {
   EXPECT_STREQ(protocol::ParseBlobData(p, out).message(),
                "blob data: bytes beyond the blob's length");
   p.pop_back();
-  p[4] = 3;
-  EXPECT_STREQ(protocol::ParseBlobData(p, out).message(), "blob data: target not 1 or 2");
+  p[4] = 4;
+  EXPECT_STREQ(protocol::ParseBlobData(p, out).message(), "blob data: target not 1, 2 or 3");
   in.data = std::span<const uint8_t>(data, protocol::kBlobDataBytes + 1);
   EXPECT_FALSE(protocol::EncodeBlobData(in, 0, wire).ok());
   // The read command's layout.

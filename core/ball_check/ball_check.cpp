@@ -469,8 +469,8 @@ CandidateVerdict BallCheck::Evaluate(const YuyvImage& image, const ColorLut& lut
   }
   // A near ball low in the view whose centre lies beyond the image border (cut by it, its circle
   // fitted) shows too little of itself for its look to be judged: a calibrated place decides.
-  const bool centre_inside = image.contains(static_cast<int>(std::lround(c.u_px)),
-                                            static_cast<int>(std::lround(c.v_px)));
+  const bool centre_inside =
+      image.contains(static_cast<int>(std::lround(c.u_px)), static_cast<int>(std::lround(c.v_px)));
   const bool near_cut = !centre_inside && v.where.known && v.where.height_m < kNearCutMaxHeightM;
   const bool look = looks() && !near_cut;
   if (!look && features == nullptr) return v;

@@ -9,7 +9,8 @@ namespace {
 
 bool ValidTarget(uint8_t t) {
   return t == static_cast<uint8_t>(UploadTarget::kCalibration) ||
-         t == static_cast<uint8_t>(UploadTarget::kLut);
+         t == static_cast<uint8_t>(UploadTarget::kLut) ||
+         t == static_cast<uint8_t>(UploadTarget::kClassifier);
 }
 
 bool Within(float v, float limit) { return std::fabs(v) <= limit; }  // false for NaN

@@ -32,7 +32,7 @@ namespace bv::protocol {
 
 inline constexpr size_t kMaxChunkBytes = 512;
 
-enum class UploadTarget : uint8_t { kCalibration = 1, kLut = 2 };
+enum class UploadTarget : uint8_t { kCalibration = 1, kLut = 2, kClassifier = 3 };
 
 enum class CommandError : uint8_t {
   kNone = 0,

@@ -295,8 +295,8 @@ Status ParseBlobData(std::span<const uint8_t> payload, BlobData& out) {
   d.cmd_seq = r.U32(), d.target = r.U8();
   d.total_len = r.U32(), d.blob_crc32 = r.U32(), d.offset = r.U32();
   d.data = payload.subspan(kBlobDataHeaderBytes);
-  if (d.target != 1 && d.target != 2) {
-    return Status(StatusCode::kInvalidArgument, "blob data: target not 1 or 2");
+  if (d.target < 1 || d.target > 3) {
+    return Status(StatusCode::kInvalidArgument, "blob data: target not 1, 2 or 3");
   }
   if (d.offset > d.total_len || d.data.size() > d.total_len - d.offset) {
     return Status(StatusCode::kInvalidArgument, "blob data: bytes beyond the blob's length");

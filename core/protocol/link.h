@@ -139,7 +139,7 @@ inline constexpr size_t kBlobDataBytes = 512;
 inline constexpr size_t kBlobDataHeaderBytes = 17;
 
 struct ReadBlobRequest {
-  uint8_t target = 0;  // UploadTarget: 1 calibration, 2 colour table
+  uint8_t target = 0;  // UploadTarget: 1 calibration, 2 colour table, 3 ball classifier
   uint32_t offset = 0;
   uint16_t length = 0;
 };

@@ -10,7 +10,7 @@ namespace bv::qemu {
 
 class RamStorage : public hal::Storage {
  public:
-  static constexpr int kSlots = 4;  // calibration A/B, colour LUT A/B
+  static constexpr int kSlots = 6;  // calibration A/B, colour LUT A/B, ball classifier A/B
   static constexpr size_t kSlotBytes = 128 * 1024;
 
   /// `memory` must hold kSlots * kSlotBytes bytes.

@@ -38,8 +38,9 @@ Status CheckRange(int slot, size_t offset, size_t size) {
 }
 
 uint8_t* SlotAddress(int slot) {
-  return reinterpret_cast<uint8_t*>(FlashStorage::kBase +
-                                    static_cast<uintptr_t>(slot) * FlashStorage::kSlotBytes);
+  return reinterpret_cast<uint8_t*>(FlashStorage::kBank2 +
+                                    static_cast<uintptr_t>(FlashStorage::Sector(slot)) *
+                                        FlashStorage::kSlotBytes);
 }
 
 }  // namespace
@@ -54,7 +55,7 @@ Status FlashStorage::DoErase(int slot) {
   BV_TRY(CheckRange(slot, 0, kSlotBytes));
   Unlock();
   BV_TRY(WaitDone());
-  kBank->CR = kFlashCrSer | kFlashCrPsize64 | (static_cast<uint32_t>(kFirstSector + slot) << 8);
+  kBank->CR = kFlashCrSer | kFlashCrPsize64 | (static_cast<uint32_t>(Sector(slot)) << 8);
   kBank->CR = kBank->CR | kFlashCrStart;
   const Status st = WaitDone();
   kBank->CR = kBank->CR & ~kFlashCrSer;

@@ -1,7 +1,8 @@
 #pragma once
-// Blob slots in internal flash: bank 2 sectors 4..7 (128 KB each) at 0x08180000, read through
-// the memory map, erased and programmed with the bank-2 register sequences (the code runs from
-// bank 1, so the CPU keeps fetching while bank 2 is busy).
+// Blob slots in internal flash: bank 2 sectors 4..7 (128 KB each) at 0x08180000 for slots 0-3,
+// sectors 2..3 at 0x08140000 for slots 4-5, read through the memory map, erased and programmed
+// with the bank-2 register sequences (the code runs from bank 1, so the CPU keeps fetching while
+// bank 2 is busy).
 #include <cstddef>
 #include <cstdint>
 
@@ -11,10 +12,11 @@ namespace bv::h7 {
 
 class FlashStorage : public hal::Storage {
  public:
-  static constexpr int kSlots = 4;  // calibration A/B, colour LUT A/B
+  static constexpr int kSlots = 6;  // calibration A/B, colour LUT A/B, ball classifier A/B
   static constexpr size_t kSlotBytes = 128 * 1024;
-  static constexpr int kFirstSector = 4;
-  static constexpr uintptr_t kBase = 0x08180000u;
+  static constexpr uintptr_t kBank2 = 0x08100000u;
+  /// Bank-2 sector of a slot: slots 0-3 in sectors 4-7 (as before the classifier's), 4-5 in 2-3.
+  static constexpr int Sector(int slot) { return slot < 4 ? 4 + slot : slot - 2; }
   static constexpr size_t kFlashWordBytes = 32;  // programming unit (256 bits + ECC)
 
  private:

@@ -1,5 +1,6 @@
 #include "tools/ballvision/blob_reader.h"
 
+#include "core/ball_check/ball_check.h"
 #include "core/calibration/calibration.h"
 #include "core/color_lut/color_lut.h"
 #include "core/common/crc32.h"
@@ -33,8 +34,10 @@ void BlobReader::Finish() {
   // The device serialised what it uses: it must parse as such, or nothing is written.
   static ColorLut lut;  // 64 KB: not on the stack
   static RigCalibration cal;
-  const Status s =
-      target_ == protocol::UploadTarget::kLut ? ParseLut(blob_, lut) : ParseCalibration(blob_, cal);
+  static BallClassifier classifier;
+  const Status s = target_ == protocol::UploadTarget::kLut          ? ParseLut(blob_, lut)
+                   : target_ == protocol::UploadTarget::kClassifier ? classifier.Parse(blob_)
+                                                                    : ParseCalibration(blob_, cal);
   if (!s.ok()) {
     error_ = std::string("the blob read back does not parse: ") + s.message();
     return;
@@ -58,7 +61,9 @@ void BlobReader::OnFrame(const protocol::FrameView& frame) {
       Restart("the device's snapshot was replaced (an upload or a teach)");
     } else if (code == protocol::CommandError::kBadTarget) {
       error_ = target_ == protocol::UploadTarget::kLut ? "the device has no colour table in use"
-                                                       : "the device has no calibration in use";
+               : target_ == protocol::UploadTarget::kClassifier
+                   ? "the device has no ball classifier in use"
+                   : "the device has no calibration in use";
     } else {
       error_ = "the device refused the read (error " + std::to_string(static_cast<int>(code)) + ")";
     }

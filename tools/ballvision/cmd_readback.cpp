@@ -20,7 +20,7 @@ namespace bv::cli {
 namespace {
 
 const char* const kReadbackUsage =
-    "usage: ballvision readback SOURCE --out FILE [--what lut|calibration] [--baud N]\n"
+    "usage: ballvision readback SOURCE --out FILE [--what lut|calibration|classifier] [--baud N]\n"
     "                          [--seconds S]\n"
     "  Reads the blob the coprocessor uses (default: the colour table, with what online\n"
     "  adaptation made of it) over a serial device, pty or tcp:HOST:PORT and writes it\n"
@@ -97,8 +97,8 @@ int CmdReadback(int argc, char** argv) {
       .Int("--baud", 1200, 4000000, a.baud)
       .Number("--seconds", 0.1, 1e6, a.seconds);
   if (const int rc = args.Parse(argc, argv); rc >= 0) return rc;
-  if (a.what != "lut" && a.what != "calibration") {
-    return args.UsageError("--what: got '" + a.what + "', expected lut or calibration");
+  if (a.what != "lut" && a.what != "calibration" && a.what != "classifier") {
+    return args.UsageError("--what: got '" + a.what + "', expected lut, calibration or classifier");
   }
   std::string err;
   if (!CheckOutputPath(a.out, err)) {
@@ -118,8 +118,9 @@ int CmdReadback(int argc, char** argv) {
     return 1;
   }
   InstallInterruptHandlers();
-  BlobReader reader(a.what == "lut" ? protocol::UploadTarget::kLut
-                                    : protocol::UploadTarget::kCalibration);
+  BlobReader reader(a.what == "lut"          ? protocol::UploadTarget::kLut
+                    : a.what == "classifier" ? protocol::UploadTarget::kClassifier
+                                             : protocol::UploadTarget::kCalibration);
   const int64_t start = NowUs();
   const std::string stopped = Exchange(fd, reader, a);
   close(fd);
@@ -137,8 +138,11 @@ int CmdReadback(int argc, char** argv) {
   std::printf(
       "read %zu bytes of the %s in use (crc32 %08x) in %.1f s, %d busy answers, %d "
       "restarts: wrote %s\n",
-      reader.blob().size(), a.what == "lut" ? "colour table" : "calibration", reader.blob_crc32(),
-      (NowUs() - start) * 1e-6, reader.busy_answers(), reader.restarts(), a.out.c_str());
+      reader.blob().size(),
+      a.what == "lut" ? "colour table"
+                      : (a.what == "classifier" ? "ball classifier" : "calibration"),
+      reader.blob_crc32(), (NowUs() - start) * 1e-6, reader.busy_answers(), reader.restarts(),
+      a.out.c_str());
   return 0;
 }
 

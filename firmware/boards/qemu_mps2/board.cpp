@@ -3,6 +3,7 @@
 //   seq=DIR        captured sequence with raw .yuyv frames (required)
 //   cal=FILE       calibration blob, stored into the calibration A/B slots (optional)
 //   lut=FILE       colour LUT blob, stored into the LUT A/B slots (optional)
+//   clf=FILE       ball classifier weights blob, stored into its A/B slots (optional)
 //   frames=N       stop after N pairs (optional)
 //   adapt=1        online colour adaptation on from boot (the cost benchmark)
 //   period_us=N    frame period for the deadline accounting (default 33333)
@@ -203,6 +204,8 @@ Status BoardInit(BoardServices& out) {
   LoadBlobArg(storage, "cal", out.config.calibration_slots, BlobKind::kCalibration,
               kCalibrationBlobVersion);
   LoadBlobArg(storage, "lut", out.config.lut_slots, BlobKind::kColorLut, kColorLutBlobVersion);
+  LoadBlobArg(storage, "clf", out.config.classifier_slots, BlobKind::kBallClassifier,
+              kBallClassifierBlobVersion);
 
   char seq[SemihostingCamera::kMaxPath + 1];
   if (!GetArg("seq", seq, sizeof(seq))) {

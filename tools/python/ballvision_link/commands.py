@@ -15,7 +15,7 @@ CLOCK_SYNC, CAPTURE_START, CAPTURE_STOP, TEACH_BALL, READ_BLOB = 0x28, 0x29, 0x2
 TEACH_FLOOR, TEACH_OMNI_PIXEL, TEACH_PERSP_PIXEL = 0, 1, 2
 CAPTURE_FULL, CAPTURE_HALF, CAPTURE_QUARTER, CAPTURE_SCANLINES = 0, 1, 2, 3
 CAPTURE_OMNI, CAPTURE_PERSP = 1, 2
-TARGET_CALIBRATION, TARGET_LUT = 1, 2
+TARGET_CALIBRATION, TARGET_LUT, TARGET_CLASSIFIER = 1, 2, 3
 MAX_CHUNK = 512
 ERRORS = {1: "unknown command", 2: "bad length", 3: "bad target", 4: "no upload", 5: "bad offset",
           6: "too large", 7: "verify failed", 8: "storage failed", 9: "unknown parameter",
@@ -83,7 +83,8 @@ def read_blob(seq: int, target: int, offset: int, length: int = MAX_CHUNK) -> by
     """Read back `length` (1..512) bytes at `offset` of the blob `target` has in use (1
     calibration, 2 colour table, as adapted); offset 0 takes a new snapshot. Answered by a
     BlobData packet or an error (17: no snapshot, 12: busy, retry)."""
-    if target not in (TARGET_CALIBRATION, TARGET_LUT) or not 1 <= length <= MAX_CHUNK:
+    if target not in (TARGET_CALIBRATION, TARGET_LUT, TARGET_CLASSIFIER) or \
+            not 1 <= length <= MAX_CHUNK:
         raise ValueError("read_blob: target 1 or 2, length 1..512")
     return encode_frame(READ_BLOB, seq, struct.pack("<BIH", target, offset, length))
 

@@ -409,7 +409,7 @@ def parse_blob_data(seq: int, payload: bytes) -> Optional[BlobData]:
     if not 0 < n <= BLOB_DATA_BYTES:
         return None
     cmd_seq, target, total, crc, offset = _BLOB_DATA_HEAD.unpack_from(payload)
-    if target not in (1, 2) or offset + n > total:
+    if target not in (1, 2, 3) or offset + n > total:
         return None
     return BlobData(seq, cmd_seq, target, total, crc, offset, bytes(payload[_BLOB_DATA_HEAD.size:]))
 

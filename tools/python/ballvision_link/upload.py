@@ -1,6 +1,7 @@
-"""python3 -m ballvision_link.upload PORT calibration|lut BLOB [--baud N]
+"""python3 -m ballvision_link.upload PORT calibration|lut|classifier BLOB [--baud N]
 
-Uploads a calibration or colour-LUT blob (`ballvision calib to-blob`, `ballvision lut train`)
+Uploads a calibration, colour-LUT or teach-file blob (`ballvision calib to-blob`, `ballvision lut
+train`, `ballvision lut teach`) or a ball classifier's weights (tools/python/train_ball_classifier.py)
 to the coprocessor: begin, 512-byte chunks, commit, each acknowledged before the next is sent.
 The coprocessor activates it only after the whole blob verified; a cut link keeps the old one."""
 import argparse
@@ -14,7 +15,7 @@ from .protocol import Decoder
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python3 -m ballvision_link.upload", description=__doc__)
     ap.add_argument("port")
-    ap.add_argument("target", choices=["calibration", "lut"])
+    ap.add_argument("target", choices=["calibration", "lut", "classifier"])
     ap.add_argument("blob")
     ap.add_argument("--baud", type=int, default=921600)
     a = ap.parse_args(argv)
@@ -25,7 +26,8 @@ def main(argv=None) -> int:
               "install pyserial)", file=sys.stderr)
         return 1
     port = serial.Serial(a.port, baudrate=a.baud, timeout=0.1)
-    target = commands.TARGET_CALIBRATION if a.target == "calibration" else commands.TARGET_LUT
+    target = {"calibration": commands.TARGET_CALIBRATION, "lut": commands.TARGET_LUT,
+              "classifier": commands.TARGET_CLASSIFIER}[a.target]
     dec = Decoder()
     for frame in commands.upload(1000, target, open(a.blob, "rb").read()):
         port.write(frame)

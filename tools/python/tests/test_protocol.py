@@ -143,7 +143,7 @@ class ReadBackTest(unittest.TestCase):
         msgs = Decoder().feed(frame)
         self.assertEqual(msgs, [(commands.READ_BLOB, 5, struct.pack("<BIH", 2, 1024, 512))])
         with self.assertRaises(ValueError):
-            commands.read_blob(6, 3, 0)
+            commands.read_blob(6, 4, 0)
         with self.assertRaises(ValueError):
             commands.read_blob(6, 2, 0, 513)
         data = bytes(range(16))
@@ -152,7 +152,7 @@ class ReadBackTest(unittest.TestCase):
         self.assertEqual((m.seq, m.cmd_seq, m.target, m.total_len, m.blob_crc32, m.offset, m.data),
                          (9, 41, 2, 65552, 0xA1B2C3D4, 65536, data))
         for bad in (ok + b"\0",  # past the blob's end
-                    ok[:4] + b"\3" + ok[5:],  # unknown target
+                    ok[:4] + b"\4" + ok[5:],  # unknown target
                     ok[:17]):  # no data
             with self.subTest(bad=bad[:17].hex()):
                 dec = Decoder()
