@@ -607,7 +607,9 @@ bool Pipeline::LargerThanABall(float persp_radius_px, float range_m) const {
 }
 
 // Acquisition (no track yet): if the two cameras' choices are not one ball, the pair of
-// candidates that is, the larger in the persp image first. Nothing changes when no pair is.
+// candidates that is, the larger in the persp image first. When no pair is and the persp choice
+// passed the look check, the omni's (which has none: a yellow shirt or banner at the mirror's rim,
+// while the ball is above its horizon) is left out rather than paired with it.
 void Pipeline::ChooseStereoPair(BallDetection& omni, BallDetection& persp) const {
   if (StereoConsistent(omni, persp)) return;
   BallDetection co[kStereoCandidates], cp[kStereoCandidates];
@@ -621,6 +623,15 @@ void Pipeline::ChooseStereoPair(BallDetection& omni, BallDetection& persp) const
       }
     }
   }
+  if (PerspLooked(persp)) omni = BallDetection{};
+}
+
+// The persp choice passed the look check (a classifier ran on it: its centre lies in the image).
+bool Pipeline::PerspLooked(const BallDetection& persp) const {
+  const RigCalibration& cal = *calibration_;
+  return persp.found && config_.persp_checks && persp_check_.looks() && persp.u_px >= 0.0f &&
+         persp.v_px >= 0.0f && persp.u_px < static_cast<float>(cal.persp.width_px) &&
+         persp.v_px < static_cast<float>(cal.persp.height_px);
 }
 
 Status Pipeline::Process(const FrameInput& in, BallState& out) {
@@ -689,6 +700,11 @@ void Pipeline::DetectBalls(const FrameInput& in, BallState& out) {
   if (in.persp.valid() && cal.persp.valid) out.persp = Detect(persp_finder_, in.persp, pred_persp_);
   if (out.omni.found && out.persp.found && !pred_omni_.valid && !pred_persp_.valid) {
     ChooseStereoPair(out.omni, out.persp);
+  } else if (out.omni.found && out.persp.found && !pred_omni_.valid && pred_persp_.valid &&
+             PerspLooked(out.persp) && !StereoConsistent(out.omni, out.persp)) {
+    // A track the omni cannot see (above its horizon, behind a strut): an omni choice the
+    // looked-at persp ball does not meet is something else.
+    out.omni = BallDetection{};
   }
 }
 

@@ -201,6 +201,7 @@ class Pipeline {
   bool LargerThanABall(float persp_radius_px, float range_m) const;
   bool StereoConsistent(const BallDetection& omni, const BallDetection& persp) const;
   void ChooseStereoPair(BallDetection& omni, BallDetection& persp) const;
+  bool PerspLooked(const BallDetection& persp) const;
   // BallFinder field predicates: image region -> the nearest ball position it can be -> field
   // test (no verdict when the ball may be in the air above a point inside).
   struct OmniField final : FieldPredicate {
