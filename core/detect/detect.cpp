@@ -81,39 +81,53 @@ CandidateShape BallFinder::ShapeOf(const Region& r) {
   return c;
 }
 
+namespace {
+BallDetection DetectionOf(const Region& r, float confidence) {
+  BallDetection d;
+  d.found = true;
+  d.arc_sectors = r.arc_sectors;
+  d.u_px = r.cu_px;
+  d.v_px = r.cv_px;
+  d.area_px = r.area_px;
+  d.radius_px = std::sqrt(r.area_px / 3.14159265f);
+  d.roundness = r.hull_roundness;
+  d.confidence = confidence;
+  return d;
+}
+
+// Inserts `d` into the list out[0..n), kept in descending `keys`; the last drops out when the list
+// is full. Returns the new count.
+size_t InsertByKey(std::span<BallDetection> out, float* keys, size_t n, const BallDetection& d,
+                   float key) {
+  size_t k = n < out.size() ? n++ : out.size();
+  while (k > 0 && keys[k - 1] < key) {
+    if (k < out.size()) {
+      out[k] = out[k - 1];
+      keys[k] = keys[k - 1];
+    }
+    --k;
+  }
+  if (k < out.size()) {
+    out[k] = d;
+    keys[k] = key;
+  }
+  return n;
+}
+}  // namespace
+
 size_t BallFinder::Ranked(std::span<BallDetection> out) const {
   const auto regions = regions_.regions();
   size_t n = 0;
   float keys[kMaxRegions];
   for (size_t i = 0; i < regions.size(); ++i) {
     if (rank_key_[i] < 0.0f) continue;
-    const Region& r = regions[i];
-    BallDetection d;
-    d.found = true;
-    d.arc_sectors = r.arc_sectors;
-    d.u_px = r.cu_px;
-    d.v_px = r.cv_px;
-    d.area_px = r.area_px;
-    d.radius_px = std::sqrt(r.area_px / 3.14159265f);
-    d.roundness = r.hull_roundness;
-    d.confidence = rank_key_[i];
     // The chosen region ranks first whatever its key (a prediction chose it).
     const float key = static_cast<int>(i) == chosen_ ? 1e30f : rank_key_[i];
-    size_t k = n < out.size() ? n++ : out.size();
-    while (k > 0 && keys[k - 1] < key) {
-      if (k < out.size()) {
-        out[k] = out[k - 1];
-        keys[k] = keys[k - 1];
-      }
-      --k;
-    }
-    if (k < out.size()) {
-      out[k] = d;
-      keys[k] = key;
-    }
+    n = InsertByKey(out.first(std::min(out.size(), kMaxRegions)), keys, n,
+                    DetectionOf(regions[i], rank_key_[i]), key);
   }
   if (chosen_ >= 0 && n > 0) {
-    // The chosen ball as Find reported it (soft centroid, confidence).
+    // The chosen ball as Find reported it (soft centroid).
     out[0].u_px = chosen_u_;
     out[0].v_px = chosen_v_;
   }
@@ -122,26 +136,15 @@ size_t BallFinder::Ranked(std::span<BallDetection> out) const {
 
 size_t BallFinder::Candidates(std::span<BallDetection> out) const {
   size_t n = 0;
+  float keys[kMaxRegions];
   const auto regions = regions_.regions();
   for (size_t i = 0; i < regions.size(); ++i) {
     const Region& r = regions[i];
     bool in_field = true;
     if (r.hole || !Passes(r, in_field) || refused_[i] != 0) continue;
-    BallDetection d;
-    d.found = true;
-    d.arc_sectors = r.arc_sectors;
-    d.u_px = r.cu_px;
-    d.v_px = r.cv_px;
-    d.area_px = r.area_px;
-    d.radius_px = std::sqrt(r.area_px / 3.14159265f);
-    d.roundness = d.confidence = r.hull_roundness;
-    // Insertion into the largest-first list; the smallest drops out when it is full.
-    size_t k = n < out.size() ? n++ : out.size();
-    while (k > 0 && out[k - 1].area_px < d.area_px) {
-      if (k < out.size()) out[k] = out[k - 1];
-      --k;
-    }
-    if (k < out.size()) out[k] = d;
+    // Largest first.
+    n = InsertByKey(out.first(std::min(out.size(), kMaxRegions)), keys, n,
+                    DetectionOf(r, r.hull_roundness), r.area_px);
   }
   return n;
 }

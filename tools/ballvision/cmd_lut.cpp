@@ -506,6 +506,20 @@ bool TeachModel(const TeachArgs& t, lut::TeachReport& r, std::string& err) {
   return lut::TeachSequence(t.seq, setup, t.opt, r, err);
 }
 
+// After a teach: -1 to go on and write, else the exit code (its failure or an interrupt said).
+int TeachOutcome(bool taught, const TeachArgs& t, const std::string& err) {
+  if (!taught) {
+    std::fprintf(stderr, "ballvision lut teach: %s; %s not written\n", err.c_str(), t.out.c_str());
+    return 1;
+  }
+  if (InterruptSignal()) {
+    ReportInterrupt("ballvision lut teach");
+    std::fprintf(stderr, "ballvision lut teach: a partly taught table is not written\n");
+    return 130;
+  }
+  return -1;
+}
+
 // `lut teach --boxes`: the table and the floor-ball profile into one teach file.
 int TeachBoxesCmd(const TeachArgs& t) {
   std::vector<AnnotatedImage> all;
@@ -518,14 +532,10 @@ int TeachBoxesCmd(const TeachArgs& t) {
             [](const AnnotatedImage& x, const AnnotatedImage& y) { return x.name < y.name; });
   const std::vector<AnnotatedImage> images = SplitImages(all, t.split);
   BoxTeach taught;
-  if (!TeachFromBoxes(t.boxes, images, BoxTeachOptions{}, taught, err)) {
-    std::fprintf(stderr, "ballvision lut teach: %s; %s not written\n", err.c_str(), t.out.c_str());
-    return 1;
-  }
-  if (InterruptSignal()) {
-    ReportInterrupt("ballvision lut teach");
-    std::fprintf(stderr, "ballvision lut teach: a partly taught table is not written\n");
-    return 130;
+  if (const int rc =
+          TeachOutcome(TeachFromBoxes(t.boxes, images, BoxTeachOptions{}, taught, err), t, err);
+      rc >= 0) {
+    return rc;
   }
   std::vector<uint8_t> blob(kColorLutBlobBytes);
   const Result<size_t> n = SerializeLut(*taught.table, blob, &taught.profile);
@@ -598,15 +608,7 @@ int TeachCmd(int argc, char** argv) {
   InstallInterruptHandlers();
   if (!t.boxes.empty()) return TeachBoxesCmd(t);
   lut::TeachReport r;
-  if (!TeachModel(t, r, err)) {
-    std::fprintf(stderr, "ballvision lut teach: %s; %s not written\n", err.c_str(), t.out.c_str());
-    return 1;
-  }
-  if (InterruptSignal()) {
-    ReportInterrupt("ballvision lut teach");
-    std::fprintf(stderr, "ballvision lut teach: a partly taught table is not written\n");
-    return 130;
-  }
+  if (const int rc = TeachOutcome(TeachModel(t, r, err), t, err); rc >= 0) return rc;
   static ColorLut lut;
   if (!WriteTaughtLut(r.model, t.out, lut, err)) {
     std::fprintf(stderr, "ballvision lut teach: %s\n", err.c_str());

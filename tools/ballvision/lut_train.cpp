@@ -15,6 +15,7 @@
 
 #include "hal/host/sequence.h"
 #include "tools/ballvision/annotate_frontend.h"
+#include "tools/ballvision/box_file.h"
 #include "tools/ballvision/signals.h"
 #include "tools/ballvision/still_image.h"
 #include "tools/ballvision/truth_csv.h"
@@ -423,30 +424,15 @@ bool EvalSim(const std::string& dir, Camera cam, const ColorLut& lut, const Find
 
 bool LoadBoxFile(const std::string& file, const std::string& image_dir, std::vector<BoxImage>& out,
                  std::string& error) {
-  std::ifstream in(file);
-  if (!in) {
-    error = file + ": cannot open";
-    return false;
-  }
-  std::map<std::string, size_t> pos;
-  std::string line;
-  int lineno = 0;
-  while (std::getline(in, line)) {
-    ++lineno;
-    if (line.empty() || line[0] == '#') continue;
-    std::stringstream ss(line);
-    std::string name, cls;
-    int id;
-    float x0, y0, x1, y1;
-    if (!(ss >> name >> id >> cls >> x0 >> y0 >> x1 >> y1)) {
-      error = file + ":" + std::to_string(lineno) + ": expected 'image class_id class x0 y0 x1 y1'";
-      return false;
+  std::vector<cli::AnnotatedImage> images;
+  if (!cli::LoadAnnotations(file, image_dir, images, error)) return false;
+  out.clear();
+  for (const cli::AnnotatedImage& im : images) {
+    BoxImage bi{im.path, {}};
+    for (const cli::AnnotatedBox& b : im.boxes) {
+      if (b.class_id == 0) bi.balls.push_back({b.u0, b.v0, b.u1, b.v1});
     }
-    if (!pos.count(name)) {
-      pos[name] = out.size();
-      out.push_back(BoxImage{image_dir + "/" + name, {}});
-    }
-    if (cls == "ball") out[pos[name]].balls.push_back({x0, y0, x1, y1});
+    out.push_back(bi);
   }
   return true;
 }

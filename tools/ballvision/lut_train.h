@@ -134,8 +134,8 @@ struct BoxImage {
   std::string path;
   std::vector<Trainer::Box> balls;
 };
-/// msl_ball_robocup_ml annotations_px.txt (image class_id class_name x0 y0 x1 y1 ...), or the
-/// same format with our own boxes. Images listed without ball rows have no ball.
+/// A box file (tools/ballvision/box_file.h: every mistake refused with file and line), its ball
+/// boxes per image. Images listed without ball rows have no ball.
 bool LoadBoxFile(const std::string& file, const std::string& image_dir, std::vector<BoxImage>& out,
                  std::string& error);
 
