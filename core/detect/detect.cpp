@@ -397,13 +397,7 @@ BallFinder::Choice BallFinder::ChooseBall(const YuyvImage& image, const ColorLut
 // failed or was unavailable, when other candidates compete, and with distance from the prediction.
 void BallFinder::Report(const Region& r, const Choice& choice, const Prediction* prediction,
                         BallDetection& out) const {
-  out.found = true;
-  out.arc_sectors = r.arc_sectors;
-  out.u_px = r.cu_px;
-  out.v_px = r.cv_px;
-  out.area_px = r.area_px;
-  out.radius_px = std::sqrt(r.area_px / 3.14159265f);
-  out.roundness = r.hull_roundness;
+  out = DetectionOf(r, 0.0f);
   float conf = r.hull_roundness;
   if (config_.field != nullptr && !choice.in_field) conf *= 0.5f;
   if (choice.candidates > 1) {
