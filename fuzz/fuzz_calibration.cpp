@@ -28,8 +28,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       auto ray = bv::PerspPixelToRay(cal.persp, 320, 240);
       if (ray.ok() && !ray->dir.allFinite()) __builtin_trap();
     }
-    if (cal.omni.valid && bv::OmniPixelToGround(cal.omni, cal.omni.center_u + 50,
-                                                cal.omni.center_v, x, y).ok()) {
+    if (cal.omni.valid &&
+        bv::OmniPixelToGround(cal.omni, cal.omni.center_u + 50, cal.omni.center_v, x, y).ok()) {
       if (!std::isfinite(x) || !std::isfinite(y)) __builtin_trap();
       (void)bv::OmniGroundToPixel(cal.omni, x, y, u, v).ok();
     }

@@ -22,8 +22,12 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   }
   // Only a whole-size blob whose container checks out can reach the code that writes the table,
   // so the (costly: 64 K cells) untouched-on-refusal check is done for those alone.
-  if (blob.size() != bv::kColorLutBlobBytes ||
-      !bv::ReadBlob(blob, bv::BlobKind::kColorLut, bv::kColorLutBlobVersion).ok()) {
+  // Version 1 (no camera section) still loads, so a whole v1 container may be accepted too.
+  const bool v2 = blob.size() == bv::kColorLutBlobBytes &&
+                  bv::ReadBlob(blob, bv::BlobKind::kColorLut, bv::kColorLutBlobVersion).ok();
+  const bool v1 = blob.size() == 16 + bv::kColorLutPayloadBytesV1 &&
+                  bv::ReadBlob(blob, bv::BlobKind::kColorLut, 1).ok();
+  if (!v1 && !v2) {
     if (bv::ParseLut(blob, lut).ok()) __builtin_trap();
     return 0;
   }

@@ -285,6 +285,31 @@ TEST(BallClassifierTest, BadBlobsAreRefusedAndTheWeightsInUseStay) {
   BallClassifierWeights w = SmallWeights();
   w.s1 = -1;
   EXPECT_EQ(SerializeBallClassifier(w, good).status().code(), StatusCode::kInvalidArgument);
+  w = SmallWeights();
+  w.s2 = 3e38f;  // finite, but the logit would not be
+  EXPECT_EQ(SerializeBallClassifier(w, good).status().code(), StatusCode::kInvalidArgument);
+  w = SmallWeights();
+  w.b1[1] = INT32_MAX;  // the int32 sums would overflow
+  EXPECT_EQ(SerializeBallClassifier(w, good).status().code(), StatusCode::kInvalidArgument);
+}
+
+TEST(BallClassifierTest, AnyAcceptedNetworkGivesAFiniteLogitEvenOnANanFeature) {
+  BallClassifierWeights w = SmallWeights();
+  w.s1 = w.s2 = 1e6f;  // the largest scales and biases it accepts
+  w.b1[0] = w.b2 = 1 << 24;
+  for (auto& row : w.w1)
+    for (int8_t& x : row) x = 127;
+  for (int8_t& x : w.w2) x = 127;
+  std::vector<uint8_t> blob(kBallClassifierBlobMaxBytes);
+  const Result<size_t> n = SerializeBallClassifier(w, blob);
+  ASSERT_TRUE(n.ok());
+  BallClassifier c;
+  ASSERT_TRUE(c.Parse(std::span(blob).first(*n)).ok());
+  BallFeatures f;
+  for (float& x : f.f) x = 1e30f;
+  EXPECT_TRUE(std::isfinite(c.Logit(f)));
+  f.f[kFeatInBall] = std::nanf("");
+  EXPECT_TRUE(std::isfinite(c.Logit(f)));
 }
 
 TEST(BallCheckTest, APlaceRefusalNeedsNoPixelsAndTheTrackBonusKeepsABorderlineBall) {

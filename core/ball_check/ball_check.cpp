@@ -360,7 +360,8 @@ float BallClassifier::Logit(const BallFeatures& features) const {
   int8_t x[kBallFeatureCount];
   for (int i = 0; i < kBallFeatureCount; ++i) {
     const float q = std::round((features.f[i] - w_.in_mean[i]) * w_.in_scale[i]);
-    x[i] = static_cast<int8_t>(std::clamp(q, -127.0f, 127.0f));
+    // Written so that a NaN feature maps to -127 (std::clamp would pass it through).
+    x[i] = static_cast<int8_t>(q > -127.0f ? (q < 127.0f ? q : 127.0f) : -127.0f);
   }
   int32_t out = w_.b2;
   for (int j = 0; j < w_.hidden; ++j) {
@@ -374,6 +375,9 @@ float BallClassifier::Logit(const BallFeatures& features) const {
 }
 
 namespace {
+constexpr float kMaxLayerScale = 1e6f;
+constexpr int32_t kMaxBias = int32_t{1} << 24;
+
 const char* CheckWeights(const BallClassifierWeights& w) {
   if (w.hidden < 1 || w.hidden > BallClassifierWeights::kMaxHidden) {
     return "ball classifier: hidden units not in 1..16";
@@ -383,10 +387,16 @@ const char* CheckWeights(const BallClassifierWeights& w) {
       return "ball classifier: input mean or scale not finite (or scale < 0)";
     }
   }
-  if (!(w.s1 > 0.0f) || !(w.s2 > 0.0f) || !std::isfinite(w.s1) || !std::isfinite(w.s2) ||
+  if (!(w.s1 > 0.0f) || !(w.s2 > 0.0f) || !(w.s1 <= kMaxLayerScale) || !(w.s2 <= kMaxLayerScale) ||
       !std::isfinite(w.threshold_logit)) {
-    return "ball classifier: layer scale not positive and finite, or threshold not finite";
+    return "ball classifier: layer scale not in (0, 1e6], or threshold not finite";
   }
+  // Bounded biases keep every int32 sum of Logit() from overflowing (28 x 127 x 127 per hidden
+  // unit, 16 x 127 x 127 at the output) and, with the scales, the logit finite.
+  for (int j = 0; j < w.hidden; ++j) {
+    if (w.b1[j] > kMaxBias || w.b1[j] < -kMaxBias) return "ball classifier: b1 beyond +-2^24";
+  }
+  if (w.b2 > kMaxBias || w.b2 < -kMaxBias) return "ball classifier: b2 beyond +-2^24";
   return nullptr;
 }
 }  // namespace
