@@ -183,6 +183,29 @@ bool DecodePngToYuyv(const std::string& name, const uint8_t* data, size_t size,
   return true;
 }
 
+bool EncodePng(const uint8_t* pixels, int width, int height, bool bgr, std::vector<uint8_t>& png,
+               std::string& error) {
+  png_image image;
+  std::memset(&image, 0, sizeof image);
+  image.version = PNG_IMAGE_VERSION;
+  image.width = static_cast<png_uint_32>(width);
+  image.height = static_cast<png_uint_32>(height);
+  image.format = bgr ? PNG_FORMAT_BGR : PNG_FORMAT_RGB;
+  png_alloc_size_t size = 0;
+  if (!png_image_write_to_memory(&image, nullptr, &size, 0, pixels, 0, nullptr)) {
+    error = std::string("PNG encoding failed (") + image.message + ")";
+    return false;
+  }
+  png.resize(size);
+  if (!png_image_write_to_memory(&image, png.data(), &size, 0, pixels, 0, nullptr)) {
+    error = std::string("PNG encoding failed (") + image.message + ")";
+    png.clear();
+    return false;
+  }
+  png.resize(size);
+  return true;
+}
+
 bool SaveYuyv(const std::string& path, const uint8_t* yuyv, int width, int height,
               std::string& error) {
   if (EndsWith(path, ".png")) {

@@ -52,6 +52,10 @@ bool DecodePngToRgb(const std::string& name, const uint8_t* data, size_t size,
 bool LoadYuyv(const std::string& path, std::vector<uint8_t>& out, int& width, int& height,
               std::string& error, int expected_width = 640, int expected_height = 480);
 
+/// Encodes 8-bit RGB (or BGR) pixels, 3 bytes each, rows packed, as PNG bytes (libpng).
+bool EncodePng(const uint8_t* pixels, int width, int height, bool bgr, std::vector<uint8_t>& png,
+               std::string& error);
+
 /// Writes a YUYV image as a raw .yuyv file, or as an RGB PNG when the path ends in .png.
 bool SaveYuyv(const std::string& path, const uint8_t* yuyv, int width, int height,
               std::string& error);

@@ -2,7 +2,6 @@
 
 #include <vector>
 
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "hal/host/sequence.h"
@@ -107,15 +106,18 @@ bool AnnotateFrontEnd(const YuyvImage& image, const ColorLut& lut, const Scanlin
     cv::putText(out, text, cv::Point(6, 16), cv::FONT_HERSHEY_SIMPLEX, 0.45,
                 cv::Scalar(255, 0, 255), 1);
   }
-  try {
-    std::vector<uchar> png;
-    std::string e;
-    if (!cv::imencode(".png", out, png) || !cli::WriteFileAtomic(png_path, png, e)) {
-      if (error) *error = e.empty() ? png_path + ": PNG encoding failed" : e;
-      return false;
-    }
-  } catch (const cv::Exception& e) {
-    if (error) *error = png_path + ": " + e.what();
+  std::vector<uint8_t> png;
+  std::string e;
+  if (!out.isContinuous() || out.type() != CV_8UC3) {
+    if (error) *error = png_path + ": annotation is not a packed 8-bit BGR picture";
+    return false;
+  }
+  if (!host::EncodePng(out.data, out.cols, out.rows, true, png, e)) {
+    if (error) *error = png_path + ": " + e;
+    return false;
+  }
+  if (!cli::WriteFileAtomic(png_path, png, e)) {
+    if (error) *error = e;
     return false;
   }
   return true;

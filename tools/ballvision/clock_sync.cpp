@@ -51,7 +51,7 @@ ClockSync::Verdict ClockSync::OnReply(const protocol::ClockSyncReply& reply, int
     // One odd exchange is held back; a second one that agrees with it, and not with the
     // estimate, is a clock jump: restart from the two.
     if (!have_suspect_ || !Agree(suspect_, raw)) {
-      if (have_suspect_) ++rejected_;
+      if (have_suspect_) ++outliers_;
       suspect_ = raw;
       have_suspect_ = true;
       return Verdict::kHeld;
@@ -62,7 +62,7 @@ ClockSync::Verdict ClockSync::OnReply(const protocol::ClockSyncReply& reply, int
     Add(suspect_);
     ++accepted_;
   } else if (have_suspect_) {
-    ++rejected_;  // the held exchange was an outlier
+    ++outliers_;  // the held exchange was an outlier
   }
   have_suspect_ = false;
   Add(raw);

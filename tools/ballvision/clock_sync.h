@@ -68,8 +68,12 @@ class ClockSync {
   uint32_t accepted() const { return accepted_; }
   uint32_t duplicates() const { return duplicates_; }
   uint32_t unknown() const { return unknown_; }
-  /// Mismatched or inconsistent replies, and held exchanges the next one did not confirm.
+  /// Mismatched or inconsistent replies: faults of the link or the coprocessor.
   uint32_t rejected() const { return rejected_; }
+  /// Held exchanges the next one did not confirm: answered, but delayed (a busy host or line).
+  uint32_t outliers() const { return outliers_; }
+  /// True while an exchange is held (answered, neither accepted nor an outlier yet).
+  bool holding() const { return have_suspect_; }
   uint32_t restarts() const { return restarts_; }
 
  private:
@@ -116,7 +120,8 @@ class ClockSync {
   Raw suspect_{};
   bool have_suspect_ = false;
 
-  uint32_t accepted_ = 0, duplicates_ = 0, unknown_ = 0, rejected_ = 0, restarts_ = 0;
+  uint32_t accepted_ = 0, duplicates_ = 0, unknown_ = 0, rejected_ = 0, outliers_ = 0,
+           restarts_ = 0;
 };
 
 }  // namespace bv::tools

@@ -11,7 +11,6 @@
 #include <vector>
 
 #include <opencv2/calib3d.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "hal/host/sequence.h"
@@ -21,6 +20,7 @@
 #include "tools/ballvision/cli_args.h"
 #include "tools/ballvision/commands.h"
 #include "tools/ballvision/signals.h"
+#include "tools/ballvision/still_image.h"
 #include "tools/ballvision/strict_json.h"
 #include "tools/ballvision/truth_csv.h"
 
@@ -28,6 +28,9 @@ namespace bv::cli {
 namespace {
 
 namespace fs = std::filesystem;
+
+// Chessboard pictures may come from a better camera than the device's frames.
+constexpr int kMaxCalibImageSide = 8192;
 using nlohmann::json;
 
 constexpr char kPerspUsage[] =
@@ -121,19 +124,28 @@ bool DetectImages(const std::string& dir, const std::string& prefix, int nx, int
       return false;
     }
     cv::Mat gray;
+    std::string why;
     if (fs::path(path).extension() == ".yuyv") {  // raw camera frame: take the Y channel
       std::vector<uint8_t> yuyv;
       int w = 0, h = 0;
-      std::string e;
-      if (host::LoadYuyv(path, yuyv, w, h, e)) {
+      if (host::LoadYuyv(path, yuyv, w, h, why)) {
         gray.create(h, w, CV_8UC1);
         for (int i = 0; i < w * h; ++i) gray.data[i] = yuyv[2 * static_cast<size_t>(i)];
       }
-    } else {
-      gray = cv::imread(path, cv::IMREAD_GRAYSCALE);
+    } else {  // JPEG or PNG (a .bmp is named and skipped: the strict decoders take neither)
+      std::vector<uint8_t> rgb;
+      int w = 0, h = 0;
+      if (LoadRgb(path, kMaxCalibImageSide, kMaxCalibImageSide, rgb, w, h, why)) {
+        gray.create(h, w, CV_8UC1);
+        for (size_t i = 0; i < static_cast<size_t>(w) * h; ++i) {
+          const uint8_t* p = &rgb[3 * i];  // BT.601 luma, as OpenCV's grey conversion
+          gray.data[i] =
+              static_cast<uint8_t>((p[0] * 4899 + p[1] * 9617 + p[2] * 1868 + 8192) >> 14);
+        }
+      }
     }
     if (gray.empty()) {
-      std::fprintf(stderr, "  %s: cannot read, skipped\n", name.c_str());
+      std::fprintf(stderr, "  %s: cannot read (%s), skipped\n", name.c_str(), why.c_str());
       continue;
     }
     width = gray.cols;

@@ -103,6 +103,20 @@ int ReplayExchanges(const std::string& path, const tools::ClockSync::Config& con
   return 0;
 }
 
+void PrintEstimate(const tools::ClockSync& sync, uint32_t sent, const char* prefix) {
+  if (!sync.valid()) {
+    std::printf("%ssent %u, no reply yet\n", prefix, sent);
+  } else {
+    std::printf(
+        "%ssent %u, offset %.6f s at t=0, drift %+.2f ppm, min delay %.0f us, "
+        "accepted %u held %u restarts %u duplicates %u refused %u outliers %u\n",
+        prefix, sent, sync.OffsetUs(0) * 1e-6, sync.DriftPpm(), sync.MinDelayUs(), sync.accepted(),
+        sync.holding() ? 1u : 0u, sync.restarts(), sync.duplicates(),
+        sync.unknown() + sync.rejected(), sync.outliers());
+  }
+  std::fflush(stdout);
+}
+
 }  // namespace
 
 int CmdSync(int argc, char** argv) {
@@ -144,18 +158,7 @@ int CmdSync(int argc, char** argv) {
   uint32_t id = 0;
   uint8_t buf[4096];
   bool closed = false;
-  auto report = [&](const char* prefix) {
-    if (!sync.valid()) {
-      std::printf("%ssent %u, no reply yet\n", prefix, id);
-    } else {
-      std::printf(
-          "%ssent %u, offset %.6f s at t=0, drift %+.2f ppm, min delay %.0f us, "
-          "accepted %u restarts %u duplicates %u refused %u\n",
-          prefix, id, sync.OffsetUs(0) * 1e-6, sync.DriftPpm(), sync.MinDelayUs(), sync.accepted(),
-          sync.restarts(), sync.duplicates(), sync.unknown() + sync.rejected());
-    }
-    std::fflush(stdout);
-  };
+  auto report = [&](const char* prefix) { PrintEstimate(sync, id, prefix); };
   while (!InterruptSignal() && !closed &&
          (seconds <= 0 || NowUs() - start < static_cast<int64_t>(seconds * 1e6))) {
     if (NowUs() >= next_request) {

@@ -8,7 +8,6 @@
 #include <memory>
 #include <sstream>
 
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "core/color_lut/color_model.h"

@@ -45,8 +45,16 @@ void JpegWarn(j_common_ptr info, int level) {
   if (level < 0) JpegFail(info);
 }
 
-bool DecodeJpeg(const std::string& path, const std::string& bytes, std::vector<uint8_t>& rgb,
-                int& width, int& height, std::string& error) {
+std::string TooLarge(const std::string& path, long w, long h, int max_w, int max_h) {
+  return path + ": image is " + std::to_string(w) + "x" + std::to_string(h) + ", larger than " +
+         (max_w == kMaxFrameWidth && max_h == kMaxFrameHeight
+              ? std::string("the largest frame the device takes")
+              : std::string("this command takes")) +
+         " (" + std::to_string(max_w) + "x" + std::to_string(max_h) + ")";
+}
+
+bool DecodeJpeg(const std::string& path, const std::string& bytes, int max_w, int max_h,
+                std::vector<uint8_t>& rgb, int& width, int& height, std::string& error) {
   jpeg_decompress_struct info;
   JpegError err;
   info.err = jpeg_std_error(&err.mgr);
@@ -64,12 +72,9 @@ bool DecodeJpeg(const std::string& path, const std::string& bytes, std::vector<u
   jpeg_mem_src(&info, reinterpret_cast<const unsigned char*>(bytes.data()),
                static_cast<unsigned long>(bytes.size()));
   jpeg_read_header(&info, TRUE);
-  if (info.image_width > static_cast<JDIMENSION>(kMaxFrameWidth) ||
-      info.image_height > static_cast<JDIMENSION>(kMaxFrameHeight)) {
-    error = path + ": image is " + std::to_string(info.image_width) + "x" +
-            std::to_string(info.image_height) +
-            ", larger than the largest frame the device takes (" + std::to_string(kMaxFrameWidth) +
-            "x" + std::to_string(kMaxFrameHeight) + ")";
+  if (info.image_width > static_cast<JDIMENSION>(max_w) ||
+      info.image_height > static_cast<JDIMENSION>(max_h)) {
+    error = TooLarge(path, info.image_width, info.image_height, max_w, max_h);
     jpeg_destroy_decompress(&info);
     return false;
   }
@@ -89,8 +94,10 @@ bool DecodeJpeg(const std::string& path, const std::string& bytes, std::vector<u
 
 }  // namespace
 
-bool LoadStill(const std::string& path, Still& out, std::string& error) {
-  out = Still{};
+bool LoadRgb(const std::string& path, int max_width, int max_height, std::vector<uint8_t>& rgb,
+             int& w, int& h, std::string& error) {
+  rgb.clear();
+  w = h = 0;
   struct stat st;
   if (stat(path.c_str(), &st) != 0) {
     error = path + ": cannot open (no such file)";
@@ -113,22 +120,25 @@ bool LoadStill(const std::string& path, Still& out, std::string& error) {
   const auto* b = reinterpret_cast<const unsigned char*>(bytes.data());
   const bool jpeg = bytes.size() >= 3 && b[0] == 0xFF && b[1] == 0xD8 && b[2] == 0xFF;
   const bool png = bytes.size() >= 8 && b[0] == 0x89 && b[1] == 'P' && b[2] == 'N' && b[3] == 'G';
-  std::vector<uint8_t> rgb;
-  int w = 0, h = 0;
-  if (jpeg) {
-    if (!DecodeJpeg(path, bytes, rgb, w, h, error)) return false;
-  } else if (png) {
-    if (!host::DecodePngToRgb(path, b, bytes.size(), rgb, w, h, error)) return false;
-    if (w > kMaxFrameWidth || h > kMaxFrameHeight) {
-      error = path + ": image is " + std::to_string(w) + "x" + std::to_string(h) +
-              ", larger than the largest frame the device takes (" +
-              std::to_string(kMaxFrameWidth) + "x" + std::to_string(kMaxFrameHeight) + ")";
-      return false;
-    }
-  } else {
+  if (jpeg) return DecodeJpeg(path, bytes, max_width, max_height, rgb, w, h, error);
+  if (!png) {
     error = path + ": not a JPEG or PNG image";
     return false;
   }
+  if (!host::DecodePngToRgb(path, b, bytes.size(), rgb, w, h, error)) return false;
+  if (w > max_width || h > max_height) {
+    error = TooLarge(path, w, h, max_width, max_height);
+    rgb.clear();
+    return false;
+  }
+  return true;
+}
+
+bool LoadStill(const std::string& path, Still& out, std::string& error) {
+  out = Still{};
+  std::vector<uint8_t> rgb;
+  int w = 0, h = 0;
+  if (!LoadRgb(path, kMaxFrameWidth, kMaxFrameHeight, rgb, w, h, error)) return false;
   out.width = w;
   out.height = h;
   // YUYV pairs pixels: an odd width repeats its last column (nothing of the file is dropped).

@@ -20,6 +20,11 @@ struct Still {
 /// frame the front end takes (kMaxFrameWidth x kMaxFrameHeight).
 bool LoadStill(const std::string& path, Still& out, std::string& error);
 
+/// The decoder behind LoadStill: 8-bit RGB, 3 bytes per pixel, with the same refusals and the
+/// given size limit (the calibration pictures).
+bool LoadRgb(const std::string& path, int max_width, int max_height, std::vector<uint8_t>& rgb,
+             int& width, int& height, std::string& error);
+
 /// Image files of a directory (sorted by name). False with `error` when it cannot be read or
 /// holds a regular file that is neither .jpg/.jpeg/.png nor one of `ignore_suffixes` (the
 /// annotations beside the images, e.g. ".txt"); sub-directories are skipped.

@@ -96,7 +96,7 @@ def _report(sync: ClockSync, sent: int, prefix: str) -> None:
     print(f"{prefix}sent {sent}, offset {sync.offset_us(0) / 1e6:.6f} s at t=0, drift {sync.drift_ppm:+.2f} "
           f"ppm, min delay {sync.min_delay_us:.0f} us, accepted {c['accepted']} held "
           f"{c['held']} restarts {c['restarted']} duplicates {c['duplicate']} refused "
-          f"{c['unknown id'] + c['mismatch'] + c['inconsistent']}", flush=True)
+          f"{c['unknown id'] + c['mismatch'] + c['inconsistent']} outliers {c['rejected']}", flush=True)
 
 
 if __name__ == "__main__":
