@@ -56,10 +56,25 @@ case "${1:-}" in
       echo "== build $p"
       build_preset "$p"
     done
+    # Every suite runs even after one failed (the summary says which); each one's wall time and
+    # its five slowest tests are printed at the end.
+    rc=0
+    summary=()
+    log=$(mktemp)
     for p in host host-sanitize fw-qemu fw-stm32h7 fuzz; do
       echo "== test $p"
-      ctest --preset "$p"
+      start=$SECONDS
+      status=passed
+      ctest --preset "$p" | tee "$log" || { status=FAILED; rc=1; }
+      slowest=$(sed -nE 's/^ *[0-9]+\/[0-9]+ +Test +#[0-9]+: ([^ ]+) .* ([0-9.]+) sec$/\2 \1/p' "$log" |
+        sort -rn | head -5 | awk '{ printf "%s%s %.1f s", (NR > 1 ? ", " : ""), $2, $1 }')
+      summary+=("$(printf '%-14s %-6s %5d s wall; slowest: %s' "$p" "$status" \
+        $((SECONDS - start)) "${slowest:-none}")")
     done
+    rm -f "$log"
+    echo "== suites"
+    printf '%s\n' "${summary[@]}"
+    exit $rc
     ;;
   *)
     sed -n '2,6p' "$0"

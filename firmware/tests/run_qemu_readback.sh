@@ -17,7 +17,9 @@ rm -rf "$work" && mkdir -p "$work"
 chunks=$(( ($(stat -c %s "$lut") + 511) / 512 ))
 # rx_bytes: the replay is held open until every read (one per 512 bytes, 23 bytes each on the
 # wire) arrived; each is answered in the iteration that reads it, before the last pairs play.
-qemu_socket "$qemu" "$elf" "$work" 60 "arg=seq=$work/seq,arg=lut=$lut,arg=rx_bytes=$(( chunks * 23 ))"
+# -icount: the board's clock (and its watchdog) counts instructions, not the host's time.
+qemu_socket "$qemu" "$elf" "$work" 60 "arg=seq=$work/seq,arg=lut=$lut,arg=rx_bytes=$(( chunks * 23 ))" \
+  -icount shift=0
 timeout 60 "$bv" readback "tcp:127.0.0.1:$port" --out "$work/table.lut" --seconds 30 \
   > "$work/readback.out" 2>&1
 rrc=$?
