@@ -641,19 +641,27 @@ Status Pipeline::Process(const FrameInput& in, BallState& out) {
   stats_.frame_errors = 0;
   if (!initialised_) return Status(StatusCode::kFailedPrecondition, "pipeline: Init() not called");
   meas_ = MeasurementInfo{};
+  if (stage_clock_ != nullptr) {
+    for (uint32_t& t : stats_.stage_ticks) t = 0;
+    stage_mark_ = stage_clock_();
+  }
 
   // 1. Prediction for this exposure -> image positions (attention, ball choice).
   Predict(in.t_us);
+  Lap(PipelineStage::kPredict);
   // 2. Field features and the robot's pose first: this frame's ball choice uses them.
   const bool have_field_pose = LocaliseAndSetFieldRule(in);
+  Lap(PipelineStage::kLocalise);
   // 3. Front end per camera present.
   DetectBalls(in, out);
+  Lap(PipelineStage::kFrontEnd);
   // 4. Rays of the detections.
   const CameraRays rays = DetectionRays(in, out);
   // 5. What this frame contributes to the filter.
   BallObservation obs;
   obs.t_us = in.t_us;
   BuildObservation(rays, out, obs);
+  Lap(PipelineStage::kRays);
   // 6. Filter, then the state at the exposure time and the prediction.
   if (obs.n_rays > 0) {
     const uint16_t f = filter_.Update(obs);
@@ -663,20 +671,56 @@ Status Pipeline::Process(const FrameInput& in, BallState& out) {
     }
     out.flags |= f;
   }
+  Lap(PipelineStage::kFilter);
   filter_.FillState(in.t_us, config_.predict_ahead_us, out);
+  Lap(PipelineStage::kState);
   // 7. Colour adaptation from what both cameras agree on.
   AdaptColours(in, out);
   // 8. A track the pose puts outside the field.
   CheckTrackInField(have_field_pose, out);
   // 9. The other candidates: a ball at rest is given up for one that moves like a ball.
   ReviewCandidates(in, out);
+  Lap(PipelineStage::kReview);
   return Status();
+}
+
+void Pipeline::Lap(PipelineStage done) {
+  if (stage_clock_ == nullptr) return;
+  const uint32_t now = stage_clock_();
+  stats_.stage_ticks[static_cast<int>(done)] += now - stage_mark_;  // wraps like the counter
+  stage_mark_ = now;
+}
+
+const char* PipelineStageName(PipelineStage stage) {
+  switch (stage) {
+    case PipelineStage::kPredict:
+      return "predict";
+    case PipelineStage::kFieldFeatures:
+      return "field features";
+    case PipelineStage::kLocalise:
+      return "localise";
+    case PipelineStage::kFrontEnd:
+      return "front end";
+    case PipelineStage::kRays:
+      return "rays";
+    case PipelineStage::kFilter:
+      return "filter";
+    case PipelineStage::kState:
+      return "state, sigma";
+    case PipelineStage::kReview:
+      return "adapt, review";
+    case PipelineStage::kCount:
+      break;
+  }
+  return "?";
 }
 
 bool Pipeline::LocaliseAndSetFieldRule(const FrameInput& in) {
   stats_.feature_lookups = stats_.out_of_field_rejected = 0;
   if (features_ready_ && in.omni.valid()) {
-    if (extractor_.Extract(in.omni, *lut_, features_).ok()) {
+    const bool extracted = extractor_.Extract(in.omni, *lut_, features_).ok();
+    Lap(PipelineStage::kFieldFeatures);
+    if (extracted) {
       localiser_.Update(features_, in.t_us, odometry_pending_ ? odometry_ : nullptr);
       NameGoals();
       RefuseOffFieldObstacles();

@@ -95,6 +95,23 @@ struct FrameInput {
   uint64_t t_us = 0;  // exposure time of the pair
 };
 
+/// Stages of Pipeline::Process(), in its order; timed when a stage clock is set.
+enum class PipelineStage : uint8_t {
+  kPredict,        // the track's prediction into both images
+  kFieldFeatures,  // omni scanlines -> line points, obstacles, goals
+  kLocalise,       // the pose from them, the in-field rule
+  kFrontEnd,       // both cameras: scan and classify, regions, checks, the ball choice
+  kRays,           // viewing rays, triangulation, the observation
+  kFilter,         // the trajectory fit
+  kState,          // the state at the exposure, its sigma, the prediction ahead
+  kReview,         // colour adaptation, the in-field check of the track, other candidates
+  kCount
+};
+inline constexpr int kPipelineStageCount = static_cast<int>(PipelineStage::kCount);
+const char* PipelineStageName(PipelineStage stage);
+/// A free-running tick counter (host: a steady clock; device: the cycle counter).
+using StageClock = uint32_t (*)();
+
 /// Per-frame counters of the front end (pixels read, regions, overflows) for benches and status.
 struct PipelineStats {
   uint32_t pixels_read = 0;
@@ -106,6 +123,7 @@ struct PipelineStats {
   uint32_t out_of_field_rejected = 0;  // ball candidates refused by the pose (this frame)
   uint32_t tracks_dropped_out_of_field = 0;  // cumulative
   uint32_t track_handovers = 0;  // cumulative: a ball at rest given up for a moving candidate
+  uint32_t stage_ticks[kPipelineStageCount] = {};  // last frame; all 0 without a stage clock
 };
 
 /// Where the prediction for the current frame falls in each image (attention, ball choice).
@@ -157,6 +175,9 @@ class Pipeline {
   /// proc_us is left 0: the caller owns the clock.
   Status Process(const FrameInput& in, BallState& out);
   const PipelineStats& last_stats() const { return stats_; }
+  /// Times each PipelineStage of Process() into last_stats().stage_ticks; null (the default)
+  /// turns it off.
+  void SetStageClock(StageClock clock) { stage_clock_ = clock; }
   const BallFilter& filter() const { return filter_; }
   const MeasurementInfo& last_measurement() const { return meas_; }
   /// Forgets the track (e.g. between unrelated stills); calibration and tables stay.
@@ -215,6 +236,7 @@ class Pipeline {
   OmniField omni_field_;
   PerspField persp_field_;
   void Predict(uint64_t t_us);
+  void Lap(PipelineStage done);  // charges the ticks since the last lap to `done`
   // Process()'s stages, in its order.
   struct CameraRays {  // the detections' rays, and whether the rim or border cut the ball
     Ray omni, persp;
@@ -241,6 +263,8 @@ class Pipeline {
   const ColorLut* lut_ = nullptr;
   PipelineConfig config_;
   PipelineStats stats_;
+  StageClock stage_clock_ = nullptr;
+  uint32_t stage_mark_ = 0;
   bool initialised_ = false;
   ScanlineTable<kOmniScanPixels> omni_scan_;
   ScanlineTable<kPerspScanPixels> persp_scan_;

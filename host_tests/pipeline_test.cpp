@@ -81,6 +81,30 @@ TEST_F(PipelineTest, StaticBallIsTriangulatedWithinCentimetres) {
   }
 }
 
+uint32_t g_ticks = 0;
+uint32_t CountingClock() { return g_ticks += 1000; }  // 1000 ticks per reading
+
+TEST_F(PipelineTest, TheStageClockChargesEveryStageOnceAndCostsNothingWhenOff) {
+  (void)Run(Eigen::Vector3f(0.f, 2.f, 0.11f), 1000000, true, true);
+  for (uint32_t t : pipeline_->last_stats().stage_ticks) EXPECT_EQ(t, 0u) << "no clock";
+  pipeline_->SetStageClock(CountingClock);
+  const uint32_t before = g_ticks;
+  (void)Run(Eigen::Vector3f(0.f, 2.f, 0.11f), 1033333, true, true);
+  uint32_t sum = 0;
+  for (int k = 0; k < kPipelineStageCount; ++k) {
+    const uint32_t t = pipeline_->last_stats().stage_ticks[k];
+    sum += t;
+    // The field features run only with a field model (the demo calibration may have none).
+    if (k == static_cast<int>(PipelineStage::kFieldFeatures) && !pipeline_->features_enabled()) {
+      EXPECT_EQ(t, 0u);
+    } else {
+      EXPECT_EQ(t, 1000u) << PipelineStageName(static_cast<PipelineStage>(k));
+    }
+  }
+  EXPECT_EQ(sum, g_ticks - before - 1000) << "every reading after the first is charged once";
+  pipeline_->SetStageClock(nullptr);
+}
+
 // The omni prediction's silhouette radius is the region a whole ball makes there (a smaller region
 // is a partly hidden ball, whose ray sigma grows by the difference).
 TEST_F(PipelineTest, OmniPredictionHasTheBallsSilhouetteRadius) {
