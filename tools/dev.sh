@@ -66,8 +66,9 @@ case "${1:-}" in
       start=$SECONDS
       status=passed
       ctest --preset "$p" | tee "$log" || { status=FAILED; rc=1; }
+      # No `head`: under pipefail, sort killed by SIGPIPE would end the script.
       slowest=$(sed -nE 's/^ *[0-9]+\/[0-9]+ +Test +#[0-9]+: ([^ ]+) .* ([0-9.]+) sec$/\2 \1/p' "$log" |
-        sort -rn | head -5 | awk '{ printf "%s%s %.1f s", (NR > 1 ? ", " : ""), $2, $1 }')
+        sort -rn | awk 'NR <= 5 { printf "%s%s %.1f s", (NR > 1 ? ", " : ""), $2, $1 }')
       summary+=("$(printf '%-14s %-6s %5d s wall; slowest: %s' "$p" "$status" \
         $((SECONDS - start)) "${slowest:-none}")")
     done
