@@ -21,10 +21,12 @@
 #include "hal/host/sequence.h"
 #include "tools/ballvision/calib_io.h"
 #include "tools/ballvision/run_common.h"
+#include "tools/ballvision/stats.h"
 
 namespace {
 
 using namespace bv;
+using cli::Median;
 
 uint64_t ThreadNs() {
   timespec ts;
@@ -39,11 +41,6 @@ struct Pair {
   uint64_t t_us = 0;
 };
 
-double Median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-  return v[v.size() / 2];
-}
 double Mean(const std::vector<double>& v) {
   double s = 0;
   for (double x : v) s += x;

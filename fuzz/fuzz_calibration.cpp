@@ -7,19 +7,14 @@
 
 #include "core/calibration/calibration.h"
 #include "core/common/blob.h"
+#include "fuzz/blob_input.h"
 
-// Odd first byte: the rest is wrapped as a payload with a valid header and CRC, so the fuzzer
-// reaches the field checks behind the CRC; even: the bytes are the blob as received.
+// Input: fuzz/blob_input.h.
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size == 0) return 0;
   std::vector<uint8_t> wrapped;
-  std::span<const uint8_t> blob(data + 1, size - 1);
-  if (data[0] & 1) {
-    wrapped.resize(blob.size() + bv::kBlobHeaderBytes);
-    auto n = bv::WriteBlob(bv::BlobKind::kCalibration, bv::kCalibrationBlobVersion, blob, wrapped);
-    if (!n.ok()) __builtin_trap();
-    blob = wrapped;
-  }
+  const std::span<const uint8_t> blob = bv::fuzz::BlobFromInput(
+      data, size, bv::BlobKind::kCalibration, bv::kCalibrationBlobVersion, wrapped);
   bv::RigCalibration cal;
   if (bv::ParseCalibration(blob, cal).ok()) {
     // An accepted calibration must be usable: no NaN out of the models.

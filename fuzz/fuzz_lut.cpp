@@ -6,20 +6,15 @@
 
 #include "core/color_lut/color_lut.h"
 #include "core/common/blob.h"
+#include "fuzz/blob_input.h"
 
-// Odd first byte: the rest is wrapped as a payload with a valid header and CRC, so the fuzzer
-// reaches the layout and class checks behind the CRC; even: the bytes as received.
+// Input: fuzz/blob_input.h.
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   static bv::ColorLut lut;  // 32 KB: static, as on the device
   if (size == 0) return 0;
   std::vector<uint8_t> wrapped;
-  std::span<const uint8_t> blob(data + 1, size - 1);
-  if (data[0] & 1) {
-    wrapped.resize(blob.size() + bv::kBlobHeaderBytes);
-    auto n = bv::WriteBlob(bv::BlobKind::kColorLut, bv::kColorLutBlobVersion, blob, wrapped);
-    if (!n.ok()) __builtin_trap();
-    blob = wrapped;
-  }
+  const std::span<const uint8_t> blob = bv::fuzz::BlobFromInput(data, size, bv::BlobKind::kColorLut,
+                                                                bv::kColorLutBlobVersion, wrapped);
   // Only a whole-size blob whose container checks out can reach the code that writes the table,
   // so the (costly: 64 K cells) untouched-on-refusal check is done for those alone.
   // Version 1 (no camera section) still loads, so a whole v1 container may be accepted too.
