@@ -45,7 +45,8 @@ Figures Run(bool capture, protocol::CaptureMode mode, uint16_t count, uint32_t p
   }
   hal::Storage& storage = scan ? static_cast<hal::Storage&>(with_calibration) : none;
   SimCamera camera(clock, pairs);
-  auto loop = std::make_unique<fw::MainLoop>(camera, uart, clock, storage, scratch);
+  auto tables = std::make_unique<PipelineTables>();
+  auto loop = std::make_unique<fw::MainLoop>(camera, uart, clock, storage, *tables, scratch);
   if (!loop->Init().ok()) std::fprintf(stderr, "init failed\n");
   if (capture) {
     const uint8_t p[4] = {static_cast<uint8_t>(count), static_cast<uint8_t>(count >> 8),

@@ -86,7 +86,7 @@ int RunScene(const std::string& dir, int reps) {
   cv::Mat bgr, hsv, mask;
   int found = 0;
   for (int r = 0; r < reps; ++r) {
-    auto pipeline = std::make_unique<Pipeline>();
+    auto pipeline = std::make_unique<OwnedPipeline>();
     if (const Status st = pipeline->Init(cal, *lut, config); !st.ok()) {
       std::fprintf(stderr, "bench_pipeline: %s\n", st.message());
       return 1;

@@ -447,7 +447,7 @@ Status Pipeline::Init(const RigCalibration& calibration, const ColorLut& lut,
   if (calibration.omni.valid) {
     const OmniScanConfig scan = PipelineOmniScan(calibration.omni, config_);
     omni_outer_radius_px_ = scan.outer_radius_px;
-    BV_TRY(omni_scan_.BuildOmni(scan, kFrameWidth, kFrameHeight));
+    BV_TRY(tables_.omni.BuildOmni(scan, kFrameWidth, kFrameHeight));
     if (config_.field_features) {
       FieldFeatureConfig fc = config_.features;
       fc.line_width_m = calibration.field.line_width_m;
@@ -462,10 +462,10 @@ Status Pipeline::Init(const RigCalibration& calibration, const ColorLut& lut,
     finder.check = nullptr;
     omni_field_.p = this;
     if (finder.field == nullptr) finder.field = &omni_field_;
-    BV_TRY(omni_finder_.Init(omni_scan_, finder));
+    BV_TRY(omni_finder_.Init(tables_.omni, finder));
   }
   if (calibration.persp.valid) {
-    BV_TRY(persp_scan_.BuildPersp(ReferencePerspScanConfig(), calibration.persp.width_px,
+    BV_TRY(tables_.persp.BuildPersp(ReferencePerspScanConfig(), calibration.persp.width_px,
                                   calibration.persp.height_px));
     BallFinderConfig finder = config_.finder;
     finder.fit_circles = config_.persp_circles;
@@ -478,7 +478,7 @@ Status Pipeline::Init(const RigCalibration& calibration, const ColorLut& lut,
     }
     persp_field_.p = this;
     if (finder.field == nullptr) finder.field = &persp_field_;
-    BV_TRY(persp_finder_.Init(persp_scan_, finder));
+    BV_TRY(persp_finder_.Init(tables_.persp, finder));
   }
   filter_.Configure(config_.filter);
   candidates_.Configure(config_.candidates);

@@ -164,8 +164,20 @@ void OmniRaySigma(const OmniCalibration& cal, const BallDetection& det, const Ra
 /// with something beside it. A region smaller by less than `small_rel` is a ball in full view.
 float SizeMisfitPx(const ImagePrediction& pred, float radius_px, float small_rel);
 
+/// The scan tables Init builds for a calibration (44.6 KB on the device): written only by Init and
+/// read in order every frame, so the firmware keeps them in external RAM (firmware/main_loop.h).
+struct PipelineTables {
+  ScanlineTable<kOmniScanPixels> omni;
+  ScanlineTable<kPerspScanPixels> persp;
+};
+
 class Pipeline {
  public:
+  /// `tables` outlive the pipeline and serve no other.
+  explicit Pipeline(PipelineTables& tables) : tables_(tables) {}
+  Pipeline(const Pipeline&) = delete;
+  Pipeline& operator=(const Pipeline&) = delete;
+
   /// Errors: kFailedPrecondition when the calibration is not valid for any camera,
   /// kInvalidArgument / kResourceExhausted from building the scan tables.
   Status Init(const RigCalibration& calibration, const ColorLut& lut, const PipelineConfig& config);
@@ -189,8 +201,8 @@ class Pipeline {
   /// Online colour adaptation (core/color_lut/color_adapt.h), fed with the detections both
   /// cameras confirm; null turns it off. The adapter must outlive the pipeline's use of it.
   void SetColorAdapter(ColorAdapter* adapter) { adapter_ = adapter; }
-  const ScanlineTableBase& omni_scan() const { return omni_scan_; }
-  const ScanlineTableBase& persp_scan() const { return persp_scan_; }
+  const ScanlineTableBase& omni_scan() const { return tables_.omni; }
+  const ScanlineTableBase& persp_scan() const { return tables_.persp; }
   const ColorLut* lut() const { return lut_; }
   const BallFinder& omni_finder() const { return omni_finder_; }
   const BallFinder& persp_finder() const { return persp_finder_; }
@@ -266,8 +278,7 @@ class Pipeline {
   StageClock stage_clock_ = nullptr;
   uint32_t stage_mark_ = 0;
   bool initialised_ = false;
-  ScanlineTable<kOmniScanPixels> omni_scan_;
-  ScanlineTable<kPerspScanPixels> persp_scan_;
+  PipelineTables& tables_;
   BallFinder omni_finder_, persp_finder_;
   BallGeometry persp_geometry_;
   BallCheck persp_check_;
@@ -298,6 +309,12 @@ class Pipeline {
     uint64_t t_us = 0;
   };
   Handover handover_;
+};
+
+/// A pipeline with its tables in the same object (host tools, tests and benchmarks).
+class OwnedPipeline : private PipelineTables, public Pipeline {
+ public:
+  OwnedPipeline() : PipelineTables(), Pipeline(static_cast<PipelineTables&>(*this)) {}
 };
 
 }  // namespace bv

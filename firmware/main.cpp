@@ -14,8 +14,8 @@ int main() {
     BoardExit(2);
   }
   static MainLoop loop(*board.camera, *board.uart, *board.clock, *board.storage,
-                       BoardBlobScratch(kBlobScratchBytes), board.config, board.watchdog,
-                       BoardUploadBuffer());
+                       BoardPipelineTables(), BoardBlobScratch(kBlobScratchBytes), board.config,
+                       board.watchdog, BoardUploadBuffer());
   const bv::Status start = loop.Init();
   if (!start.ok()) {
     // Keep going: the status packets report the camera fault (kFaultCameraStart).

@@ -34,8 +34,9 @@ YuyvImage ToImage(const hal::Frame& f) {
 }  // namespace
 
 MainLoop::MainLoop(hal::Camera& camera, hal::Uart& uart, hal::Clock& clock, hal::Storage& storage,
-                   std::span<uint8_t> blob_scratch, const MainLoopConfig& config,
-                   hal::Watchdog* watchdog, std::span<uint8_t> upload_buffer)
+                   PipelineTables& tables, std::span<uint8_t> blob_scratch,
+                   const MainLoopConfig& config, hal::Watchdog* watchdog,
+                   std::span<uint8_t> upload_buffer)
     : camera_(camera),
       uart_(uart),
       clock_(clock),
@@ -44,7 +45,8 @@ MainLoop::MainLoop(hal::Camera& camera, hal::Uart& uart, hal::Clock& clock, hal:
       config_(config),
       watchdog_(watchdog),
       upload_buffer_(upload_buffer.size() >= kUploadBufferBytes ? upload_buffer
-                                                                : std::span<uint8_t>()) {
+                                                                : std::span<uint8_t>()),
+      pipeline_(tables) {
   static_assert(kAdapterOffset % alignof(ColorAdapter) == 0);
   static_assert(kClassifierOffset % alignof(BallClassifier) == 0);
   if (!upload_buffer_.empty()) {

@@ -119,9 +119,10 @@ class MainLoop {
   /// `upload_buffer` (>= kUploadBufferBytes, else uploads are refused) receives calibration /
   /// LUT uploads from the main computer.
   /// `watchdog` (optional) is fed once per Poll().
+  /// `tables` hold the pipeline's scan tables (external RAM on the boards: BoardPipelineTables).
   MainLoop(hal::Camera& camera, hal::Uart& uart, hal::Clock& clock, hal::Storage& storage,
-           std::span<uint8_t> blob_scratch, const MainLoopConfig& config = MainLoopConfig(),
-           hal::Watchdog* watchdog = nullptr,
+           PipelineTables& tables, std::span<uint8_t> blob_scratch,
+           const MainLoopConfig& config = MainLoopConfig(), hal::Watchdog* watchdog = nullptr,
            std::span<uint8_t> upload_buffer = std::span<uint8_t>());
 
   /// Loads calibration and LUT (problems are reported in the status packet, not fatal), starts
@@ -296,8 +297,8 @@ class MainLoop {
   std::span<uint8_t> upload_buffer_;
 
   RigCalibration calibration_;
-  ColorLut lut_;  // 64 KB: the loop object is meant to be static, never on the stack
-  Pipeline pipeline_;
+  ColorLut lut_;       // 64 KB: the loop object is meant to be static, never on the stack
+  Pipeline pipeline_;  // its scan tables are outside the loop object
   bool pipeline_ready_ = false;
   uint32_t tables_generation_ = 0;  // +1 each time the pipeline (and its scan tables) is built
   protocol::StatusReport status_;

@@ -104,8 +104,8 @@ class CaptureLoopTest : public ::testing::Test {
       ASSERT_TRUE(InstallCalibration(cal_storage_, cli::MakeDemoCalibration(), scratch_));
     }
     hal::Storage& storage = with_calibration ? static_cast<hal::Storage&>(cal_storage_) : storage_;
-    loop_ = std::make_unique<MainLoop>(*camera_, uart_, clock_, storage, scratch_, MainLoopConfig(),
-                                       nullptr, upload_);
+    loop_ = std::make_unique<MainLoop>(*camera_, uart_, clock_, storage, tables_, scratch_,
+                                       MainLoopConfig(), nullptr, upload_);
     ASSERT_TRUE(loop_->Init().ok());
     ASSERT_EQ(loop_->pipeline_ready(), with_calibration);
   }
@@ -186,6 +186,7 @@ class CaptureLoopTest : public ::testing::Test {
   MemStorage cal_storage_;
   std::vector<uint8_t> upload_ = std::vector<uint8_t>(kUploadBufferBytes);
   std::vector<uint8_t> scratch_ = std::vector<uint8_t>(kBlobScratchBytes);
+  PipelineTables tables_;
   std::unique_ptr<SimCamera> camera_;
   std::unique_ptr<MainLoop> loop_;
   uint32_t cmd_seq_ = 1;

@@ -157,7 +157,7 @@ TEST(ColorAdaptTest, OnlyDetectionsBothCamerasConfirmTeach) {
     ASSERT_TRUE(BuildLut(BallColorModel{}, *table).ok());
     auto adapter = std::make_unique<ColorAdapter>();
     adapter->Start(BallColorModel{}, table.get());
-    auto pipeline = std::make_unique<Pipeline>();
+    auto pipeline = std::make_unique<OwnedPipeline>();
     ASSERT_TRUE(pipeline->Init(cal, *table, PipelineConfig{}).ok());
     pipeline->SetColorAdapter(adapter.get());
     int n = 0;

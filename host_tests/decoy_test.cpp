@@ -44,7 +44,7 @@ SceneRun RunScene(bool (*ball)(double, Eigen::Vector3f&), double seconds,
   const RigCalibration cal = cli::MakeDemoCalibration();
   auto lut = std::make_unique<ColorLut>();
   cli::FillBuiltInLut(*lut);
-  auto pipeline = std::make_unique<Pipeline>();
+  auto pipeline = std::make_unique<OwnedPipeline>();
   PipelineConfig config;
   config.candidates = candidates;
   EXPECT_TRUE(pipeline->Init(cal, *lut, config).ok());

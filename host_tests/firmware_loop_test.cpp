@@ -169,7 +169,7 @@ Decoded Decode(std::span<const uint8_t> bytes) {
 class MainLoopTest : public ::testing::Test {
  protected:
   void Run(const MainLoopConfig& config = MainLoopConfig()) {
-    loop_ = std::make_unique<MainLoop>(camera_, uart_, clock_, storage_, scratch_, config);
+    loop_ = std::make_unique<MainLoop>(camera_, uart_, clock_, storage_, tables_, scratch_, config);
     init_ = loop_->Init();
     loop_->RunUntilFinished();
   }
@@ -198,6 +198,7 @@ class MainLoopTest : public ::testing::Test {
   FakeClock clock_;
   sim::MemStorage storage_;
   std::array<uint8_t, kBlobScratchBytes> scratch_{};
+  PipelineTables tables_, reboot_tables_;  // the reboot tests run a second loop beside loop_
   std::unique_ptr<MainLoop> loop_;
   Status init_;
 };
@@ -215,8 +216,8 @@ class CountingWatchdog : public hal::Watchdog {
 TEST_F(MainLoopTest, TheWatchdogIsFedOncePerIteration) {
   camera_.AddRegular(6, 33333);
   CountingWatchdog watchdog;
-  loop_ = std::make_unique<MainLoop>(camera_, uart_, clock_, storage_, scratch_, MainLoopConfig(),
-                                     &watchdog);
+  loop_ = std::make_unique<MainLoop>(camera_, uart_, clock_, storage_, tables_, scratch_,
+                                     MainLoopConfig(), &watchdog);
   ASSERT_TRUE(loop_->Init().ok());
   EXPECT_EQ(watchdog.feeds, 0);
   int polls = 0;
@@ -370,7 +371,7 @@ TEST_F(MainLoopTest, SlowProcessingCountsOverruns) {
 
 TEST_F(MainLoopTest, FullUartDropsWholePacketsAndCountsThem) {
   camera_.AddRegular(6, 33333);
-  loop_ = std::make_unique<MainLoop>(camera_, uart_, clock_, storage_, scratch_);
+  loop_ = std::make_unique<MainLoop>(camera_, uart_, clock_, storage_, tables_, scratch_);
   ASSERT_TRUE(loop_->Init().ok());
   for (int i = 0; i < 3; ++i) {
     while (!loop_->Poll()) {
@@ -488,7 +489,7 @@ TEST_F(MainLoopTest, UnderBackpressureBallStatesGoOutFirstAndFeaturesAreDropped)
   const int kPairs = 60;
   camera_.AddRegular(kPairs, 33333);
   uart_.ring = 1024;
-  loop_ = std::make_unique<MainLoop>(camera_, uart_, clock_, storage_, scratch_);
+  loop_ = std::make_unique<MainLoop>(camera_, uart_, clock_, storage_, tables_, scratch_);
   ASSERT_TRUE(loop_->Init().ok());
   ASSERT_TRUE(loop_->pipeline_ready());
   while (!camera_.Finished()) {
@@ -524,8 +525,8 @@ TEST_F(MainLoopTest, UnderBackpressureBallStatesGoOutFirstAndFeaturesAreDropped)
 class MainLoopCommandsTest : public MainLoopTest {
  protected:
   void Start() {
-    loop_ = std::make_unique<MainLoop>(camera_, uart_, clock_, storage_, scratch_, MainLoopConfig(),
-                                       nullptr, upload_);
+    loop_ = std::make_unique<MainLoop>(camera_, uart_, clock_, storage_, tables_, scratch_,
+                                       MainLoopConfig(), nullptr, upload_);
     ASSERT_TRUE(loop_->Init().ok());
   }
   void Command(protocol::MsgType type, std::span<const uint8_t> payload) {
@@ -611,7 +612,7 @@ TEST_F(MainLoopCommandsTest, LutUploadIsVerifiedSavedAndActivated) {
   EXPECT_EQ(loop_->status().lut_state, static_cast<uint8_t>(protocol::BlobState::kOk));
   EXPECT_EQ(loop_->status().lut_id, lut_.Id());
   // Persisted: a fresh loop over the same storage loads it at boot.
-  MainLoop reboot(camera_, uart_, clock_, storage_, scratch_);
+  MainLoop reboot(camera_, uart_, clock_, storage_, reboot_tables_, scratch_);
   ASSERT_TRUE(reboot.Init().ok());
   EXPECT_EQ(reboot.status().lut_id, lut_.Id());
 }
@@ -653,7 +654,7 @@ TEST_F(MainLoopCommandsTest, TeachAtAPixelLearnsTheBallStoresAndActivatesTheTabl
   EXPECT_EQ(loop_->lut().Classify(110, 86, 142), ColorClass::kBall) << "the shade too";
   EXPECT_NE(loop_->lut().Classify(128, 128, 128), ColorClass::kBall);
   // Stored as an upload is: a fresh loop loads it.
-  MainLoop reboot(camera_, uart_, clock_, storage_, scratch_);
+  MainLoop reboot(camera_, uart_, clock_, storage_, reboot_tables_, scratch_);
   ASSERT_TRUE(reboot.Init().ok());
   EXPECT_EQ(reboot.status().lut_id, loop_->status().lut_id);
   std::memset(g_frame, 128, sizeof g_frame);
@@ -743,7 +744,7 @@ TEST_F(MainLoopCommandsTest, AdaptationNeedsAKnownModelAndOnlyASaveMakesItPerman
   Replies(acks, errors, statuses, code);
   EXPECT_EQ(acks, 2);
   EXPECT_EQ(loop_->status().lut_state, static_cast<uint8_t>(protocol::BlobState::kOk));
-  MainLoop reboot(camera_, uart_, clock_, storage_, scratch_);
+  MainLoop reboot(camera_, uart_, clock_, storage_, reboot_tables_, scratch_);
   ASSERT_TRUE(reboot.Init().ok());
   EXPECT_EQ(reboot.status().lut_id, loop_->status().lut_id);
   // After an uploaded table (its model unknown) adaptation cannot start.
@@ -793,7 +794,7 @@ TEST_F(MainLoopCommandsTest, CorruptUploadIsRefusedAndNothingChanges) {
   EXPECT_EQ(loop_->status().lut_state, static_cast<uint8_t>(protocol::BlobState::kBuiltInMissing));
   loop_->SendStatus();  // the counters are refreshed with every status packet
   EXPECT_EQ(loop_->status().command_errors, 2u);
-  MainLoop reboot(camera_, uart_, clock_, storage_, scratch_);
+  MainLoop reboot(camera_, uart_, clock_, storage_, reboot_tables_, scratch_);
   ASSERT_TRUE(reboot.Init().ok());
   EXPECT_EQ(reboot.status().lut_state, static_cast<uint8_t>(protocol::BlobState::kBuiltInMissing));
 }

@@ -91,7 +91,7 @@ TEST(NoAlloc, ProcessNeverAllocatesAfterInit) {
   const RigCalibration cal = cli::MakeDemoCalibration();
   auto lut = std::make_unique<ColorLut>();
   cli::FillBuiltInLut(*lut);
-  auto pipeline = std::make_unique<Pipeline>();
+  auto pipeline = std::make_unique<OwnedPipeline>();
   ASSERT_TRUE(pipeline->Init(cal, *lut, PipelineConfig{}).ok());
   const cli::DemoRenderer renderer(cal);
   // Render every frame before counting (the renderer is a host tool and allocates).

@@ -50,13 +50,13 @@ class PipelineTest : public ::testing::Test {
 
   RigCalibration cal_;
   std::unique_ptr<ColorLut> lut_ = std::make_unique<ColorLut>();
-  std::unique_ptr<Pipeline> pipeline_ = std::make_unique<Pipeline>();
+  std::unique_ptr<OwnedPipeline> pipeline_ = std::make_unique<OwnedPipeline>();
   std::unique_ptr<cli::DemoRenderer> renderer_;
   std::vector<uint8_t> omni_, persp_;
 };
 
 TEST_F(PipelineTest, NotInitialisedOrInvalidCalibrationIsAnError) {
-  Pipeline p;
+  OwnedPipeline p;
   BallState s;
   EXPECT_EQ(p.Process(FrameInput{}, s).code(), StatusCode::kFailedPrecondition);
   RigCalibration bad;
@@ -239,7 +239,7 @@ TEST_F(PipelineTest, TheOmniRayIsCorrectedForTheShadedSidesLostPixels) {
   auto range_error = [&](int lost_pairs, float lost_px) {
     PipelineConfig config;
     config.omni_shade_lost_px = lost_px;
-    Pipeline p;
+    OwnedPipeline p;
     EXPECT_TRUE(p.Init(cal_, *lut_, config).ok());
     renderer_->Render(ball, 7, omni_, persp_);
     for (int l = 0; l < lost_pairs; ++l) {  // the innermost YUYV pair of the ball's pixels
@@ -411,7 +411,7 @@ bool SimAvailable(const char* scene) {
 struct SimRun {
   RigCalibration cal;
   std::unique_ptr<ColorLut> lut = std::make_unique<ColorLut>();
-  std::unique_ptr<Pipeline> pipeline = std::make_unique<Pipeline>();
+  std::unique_ptr<OwnedPipeline> pipeline = std::make_unique<OwnedPipeline>();
   std::vector<cli::FrameRecord> recs;
   cli::TruthCsv truth;
 };

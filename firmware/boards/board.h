@@ -32,6 +32,9 @@ std::span<uint8_t> BoardBlobScratch(size_t min_bytes);
 /// RAM for blob uploads from the main computer (kUploadBufferBytes, external RAM where the
 /// board has it); empty if the board cannot take uploads.
 std::span<uint8_t> BoardUploadBuffer();
+/// The pipeline's scan tables, built in external RAM where the board has it. Call after
+/// BoardInit (which brings that RAM up), once.
+PipelineTables& BoardPipelineTables();
 /// Diagnostic text on the board's debug channel (never the packet UART).
 void BoardLog(const char* text);
 /// Flushes the UART and stops: QEMU exits with `code`; a live board resets.

@@ -78,7 +78,7 @@ inline constexpr uint8_t kScanFillChroma = 128;
 struct ScanTables {
   RigCalibration calibration;
   ColorLut lut;
-  Pipeline pipeline;
+  OwnedPipeline pipeline;
   /// False (`error` says why) when the pipeline cannot be built from `cal`.
   bool Build(const RigCalibration& cal, std::string& error);
   const ScanlineTableBase& table(int camera) const {

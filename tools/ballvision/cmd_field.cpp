@@ -525,7 +525,7 @@ int CmdEvalField(int argc, char** argv) {
     ParseBallName(a.ball.empty() ? "red" : a.ball.c_str(), b);
     adapter.Start(BuiltInBallModel(b), &in.lut);
   }
-  auto pipeline = std::make_unique<Pipeline>();
+  auto pipeline = std::make_unique<OwnedPipeline>();
   PipelineConfig config;
   config.field_features = !a.no_field;
   config.classifier = in.classifier.loaded() ? &in.classifier : nullptr;

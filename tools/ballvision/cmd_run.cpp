@@ -102,7 +102,7 @@ struct Setup {
   RigCalibration cal;
   ColorLut lut;
   BallClassifier classifier;
-  std::unique_ptr<Pipeline> pipeline = std::make_unique<Pipeline>();
+  std::unique_ptr<OwnedPipeline> pipeline = std::make_unique<OwnedPipeline>();
   PipelineConfig config;
 };
 
@@ -1133,7 +1133,7 @@ int CmdDemo(int argc, char** argv) {
   const RigCalibration cal = MakeDemoCalibration();
   auto lut = std::make_unique<ColorLut>();
   FillBuiltInLut(*lut);
-  auto pipeline = std::make_unique<Pipeline>();
+  auto pipeline = std::make_unique<OwnedPipeline>();
   // No appearance classifier: the demo draws flat-shaded discs, unlike the balls it was trained
   // on, and it refuses some of them. The size-and-place checks stay on.
   PipelineConfig config;

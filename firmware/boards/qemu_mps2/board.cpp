@@ -23,6 +23,7 @@
 // exit 103.
 // At exit the board prints its own counters ("board: exit ..."), which survive a stuck UART.
 #include <cstring>
+#include <new>
 
 #include "firmware/boards/board.h"
 #include "hal/common/blob_store.h"
@@ -45,6 +46,9 @@ __attribute__((section(".psram"), aligned(32)))
 uint8_t g_storage_mem[RamStorage::kSlots * RamStorage::kSlotBytes];
 
 __attribute__((section(".psram"), aligned(32))) uint8_t g_upload[kUploadBufferBytes];
+// Raw bytes: a NOLOAD section is not zeroed, and the tables are built in place after BoardInit.
+__attribute__((section(".psram"))) alignas(bv::PipelineTables) uint8_t
+    g_tables_mem[sizeof(bv::PipelineTables)];
 
 // Far longer than a healthy iteration (a frame pair takes ~1 ms) and than activating an uploaded
 // LUT (verify, A/B save, pipeline re-init: boot does the same work in ~0.2 s of virtual time).
@@ -240,6 +244,8 @@ std::span<uint8_t> BoardBlobScratch(size_t min_bytes) {
   (void)min_bytes;
   return std::span<uint8_t>(g_frame_slots[0][0], kFrameBytes);
 }
+
+PipelineTables& BoardPipelineTables() { return *new (g_tables_mem) PipelineTables; }
 
 std::span<uint8_t> BoardUploadBuffer() { return g_upload; }
 

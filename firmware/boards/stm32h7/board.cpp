@@ -1,5 +1,7 @@
 // STM32H743 board bring-up for the firmware: clocks (in Reset_Handler), pins, SDRAM, TIM2,
 // USART1 + DMA, flash blob slots, DCMI camera, watchdog.
+#include <new>
+
 #include "firmware/boards/board.h"
 #include "hal/stm32h7/camera.h"
 #include "hal/stm32h7/clock.h"
@@ -17,6 +19,9 @@ using namespace bv::h7;
 __attribute__((section(".frames"), aligned(32))) CaptureSlots g_capture_slots;
 
 __attribute__((section(".sdram"), aligned(32))) uint8_t g_upload[bv::fw::kUploadBufferBytes];
+// Raw bytes: a NOLOAD section is not zeroed, and the tables are built in place after BoardInit.
+__attribute__((section(".sdram"))) alignas(bv::PipelineTables) uint8_t
+    g_tables_mem[sizeof(bv::PipelineTables)];
 
 Tim2Clock g_clock;
 DmaUart g_uart;
@@ -54,6 +59,8 @@ std::span<uint8_t> BoardBlobScratch(size_t min_bytes) {
   (void)min_bytes;
   return std::span<uint8_t>(g_capture_slots[0], kSlotBytes);
 }
+
+PipelineTables& BoardPipelineTables() { return *new (g_tables_mem) PipelineTables; }
 
 std::span<uint8_t> BoardUploadBuffer() { return g_upload; }
 
