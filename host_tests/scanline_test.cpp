@@ -245,7 +245,7 @@ TEST(ScanlineTest, KeptPairsAreTheKeptSamplesInOrderAndFollowsMeansTheSampleBefo
         prev_kept = k;
         ++in_row;
       });
-  t->ForEachKeptPair(frame.data(), kW * 2, 64, keep, [&](int u, int v, uint32_t w, bool follows) {
+  t->ForEachKeptPair(frame.data(), kW * 2, keep, [&](int u, int v, uint32_t w, bool follows) {
     got.push_back({u, v, w, follows});
   });
   EXPECT_GT(escapes, 0) << "the pattern must exercise escape entries";

@@ -46,6 +46,8 @@ Status FieldFeatureExtractor::Init(const OmniScanConfig& scan, const OmniCalibra
     return Status(StatusCode::kInvalidArgument, "field features: bad feature ray set");
   }
   for (int k = 0; k < n_radii_; ++k) radii_q4_[k] = RadiusQ4(radii[k]);
+  for (int k = n_radii_; k < n_radii_ + kRayLookAhead; ++k)
+    radii_q4_[k] = n_radii_ > 0 ? radii_q4_[n_radii_ - 1] : 0;
   static_assert(OmniFeatureRays::kMaxRadii <= 255);
   blocked_ = 0;
   for (int i = 0; i < scan.features.rays; ++i) {
@@ -182,8 +184,17 @@ void FieldFeatureExtractor::ScanRay(const YuyvImage& img, const ColorLut& lut, i
   const uint8_t* const data = img.data;
   const int stride = img.stride_bytes;
   const int32_t* const radii = radii_q4_;
+  const uintptr_t base = reinterpret_cast<uintptr_t>(data);
+  const auto ustride = static_cast<uintptr_t>(stride);
   for (int k = 0; k < n; ++k) {
     int u, v;
+    if constexpr (kHintRayAhead) {
+      // A cold frame: hint the sample kRayLookAhead further out. The address is formed as an
+      // integer and may lie past the frame; a hint never faults.
+      OmniRayPixel(ray_q, radii[k + kRayLookAhead], u, v);
+      __builtin_prefetch(reinterpret_cast<const void*>(base + static_cast<uintptr_t>(v) * ustride +
+                                                       static_cast<uintptr_t>(u) * 2));
+    }
     OmniRayPixel(ray_q, radii[k], u, v);
     // Inside the frame by construction (inside_), so no bounds test in this loop.
     const uint8_t* pair = data + v * stride + (u & ~1) * 2;

@@ -78,6 +78,16 @@ struct FieldFeatures {
   uint32_t lookups = 0;        // LUT lookups of this pass (the pixels are the scan table's)
 };
 
+/// Samples the feature walk hints ahead of the one it reads (a cold frame, one ray at a time).
+/// Hosts only: the hint's 6 instructions a sample would add ~6 % to the device's counted budget
+/// (DESIGN section 5), for a gain not measured on its cache (core/field/README.md).
+inline constexpr int kRayLookAhead = 12;
+#if defined(__arm__)
+inline constexpr bool kHintRayAhead = false;
+#else
+inline constexpr bool kHintRayAhead = true;
+#endif
+
 class FieldFeatureExtractor {
  public:
   /// `scan` must be the OmniScanConfig the omni scan table was built from (features.rays > 0);
@@ -127,7 +137,8 @@ class FieldFeatureExtractor {
   const OmniCalibration* cal_ = nullptr;
   FieldFeatureConfig config_;
   bool ready_ = false;
-  int32_t radii_q4_[OmniFeatureRays::kMaxRadii] = {};
+  // Padded with the last radius for the walk's look-ahead (ScanRay).
+  int32_t radii_q4_[OmniFeatureRays::kMaxRadii + kRayLookAhead] = {};
   uint8_t inside_[OmniFeatureRays::kMaxRays] = {};  // leading samples of each ray in the frame
   OmniRayQ rays_[OmniFeatureRays::kMaxRays] = {};
   uint64_t blocked_ = 0;  // rays in a strut wedge

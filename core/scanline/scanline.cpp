@@ -132,6 +132,21 @@ void ScanlineTableBase::Reset(int width, int height) {
   height_ = height;
   for (uint16_t& s : row_start_) s = 0;
   for (uint16_t& f : row_first_u_) f = 0;
+  lead_rows_ = 0;
+}
+
+void ScanlineTableBase::SetLeads() {
+  int first = -1, last = -1, rows = 0;
+  for (int v = 0; v < height_; ++v) {
+    if (row_start_[v] == row_start_[v + 1]) continue;
+    if (first < 0) first = v;
+    last = v;
+    ++rows;
+  }
+  // The mean spacing of the sampled rows: a table's rows are evenly spaced (persp lattice) or
+  // adjacent (omni), and one distance per table keeps the hot loop free of a per-row lookup.
+  lead_rows_ =
+      rows > 1 ? std::clamp((last - first) * kPrefetchSampledRows / (rows - 1), 1, 255) : 0;
 }
 
 namespace {
@@ -422,6 +437,7 @@ Status ScanlineTableBase::BuildOmni(const OmniScanConfig& c, int width, int heig
       return st;
     }
   }
+  SetLeads();
   return Status::Ok();
 }
 
@@ -484,6 +500,7 @@ Status ScanlineTableBase::BuildPersp(const PerspScanConfig& c, int width, int he
       return st;
     }
   }
+  SetLeads();
   return Status::Ok();
 }
 

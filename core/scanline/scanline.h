@@ -163,18 +163,19 @@ class ScanlineTableBase {
   /// hit(u, v, word, follows) is called, `follows` being true when the sample before it in the same
   /// row (no escape between) was kept too. No per-sample state is written for the samples that are
   /// not kept (most of them), which is what makes this loop cheap. Each sample also hints the cache
-  /// at `prefetch_bytes` beyond its pair (a hint never faults).
+  /// at its column about kPrefetchSampledRows sampled rows below (a cold frame; a hint never
+  /// faults, and the address is formed as an integer): rows a sparse table skips are not fetched.
   template <typename KeepFn, typename HitFn>
-  void ForEachKeptPair(const uint8_t* data, int stride, uintptr_t prefetch_bytes, KeepFn&& keep,
-                       HitFn&& hit) const {
+  void ForEachKeptPair(const uint8_t* data, int stride, KeepFn&& keep, HitFn&& hit) const {
     static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "pair word is read little-endian");
+    const uintptr_t ahead = static_cast<uintptr_t>(lead_rows_) * static_cast<uintptr_t>(stride);
     for (int v = 0; v < height_; ++v) {
       const uint8_t* const row = data + static_cast<ptrdiff_t>(v) * stride;
       const uint8_t* kept = nullptr;  // `after` of the last kept sample of this row
       ForEachInRow(v, [&](int u, const uint8_t* after) {
         const uint8_t* pair = row + (u >> 1) * 4;
         __builtin_prefetch(
-            reinterpret_cast<const void*>(reinterpret_cast<uintptr_t>(pair) + prefetch_bytes));
+            reinterpret_cast<const void*>(reinterpret_cast<uintptr_t>(pair) + ahead));
         uint32_t word;
         std::memcpy(&word, pair, sizeof word);
         if (__builtin_expect(keep(word), 0)) {
@@ -184,6 +185,9 @@ class ScanlineTableBase {
       });
     }
   }
+
+  /// Sampled rows ahead at which ForEachKeptPair hints the cache.
+  static constexpr int kPrefetchSampledRows = 8;
 
  protected:
   // `words` holds `capacity` bytes of table (as uint16_t, so that the build can use the unwritten
@@ -220,6 +224,8 @@ class ScanlineTableBase {
   }
   // The build's buffer for one row's sample columns: the table's unwritten tail.
   uint16_t* RowBuffer(int& room) const;
+  // lead_rows_ from the finished table.
+  void SetLeads();
   // Moves row v's m sorted, unique columns (in RowBuffer()) to the end of the tail, where the row's
   // own entries cannot reach them, and appends them; kResourceExhausted when the table is full.
   Status AppendBufferedRow(int v, int m);
@@ -235,6 +241,7 @@ class ScanlineTableBase {
   uint32_t used_ = 0;    // table entries (samples + escapes)
   uint16_t row_start_[kMaxRows + 1] = {};
   uint16_t row_first_u_[kMaxRows] = {};
+  int lead_rows_ = 0;  // rows spanned by kPrefetchSampledRows sampled rows (ForEachKeptPair)
   int width_ = 0, height_ = 0;
 };
 
