@@ -453,7 +453,7 @@ Status Pipeline::Init(const RigCalibration& calibration, const ColorLut& lut,
       fc.line_width_m = calibration.field.line_width_m;
       fc.goal_width_m = calibration.field.goal_width_m;
       fc.goal_depth_m = calibration.field.goal_depth_m;
-      BV_TRY(extractor_.Init(scan, calibration.omni, fc));
+      BV_TRY(extractor_.Init(scan, calibration.omni, fc, tables_.feature_walk));
       BV_TRY(localiser_.Init(&field_model_, config_.localiser));
       features_ready_ = true;
     }

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <functional>
 #include <memory>
 #include <random>
@@ -419,7 +420,8 @@ class FeatureImageTest : public ::testing::Test {
 
 TEST_F(FeatureImageTest, LinePointsLieOnTheLineAndTheObstacleIsFound) {
   auto ex = std::make_unique<FieldFeatureExtractor>();
-  ASSERT_TRUE(ex->Init(scan_, cal_.omni, FieldFeatureConfig{}).ok());
+  auto walk = std::make_unique<FieldFeatureWalk>();
+  ASSERT_TRUE(ex->Init(scan_, cal_.omni, FieldFeatureConfig{}, *walk).ok());
   auto f = std::make_unique<FieldFeatures>();
   ASSERT_TRUE(ex->Extract(view(), *lut_, *f).ok());
   ASSERT_GE(f->line_count, 8);
@@ -446,7 +448,8 @@ TEST_F(FeatureImageTest, ARobotRightBehindALineIsFound) {
     return std::fabs(std::hypot(gx, gy) - (foot - 0.1)) <= 0.1 ? 230 : kGreenY;
   });
   auto ex = std::make_unique<FieldFeatureExtractor>();
-  ASSERT_TRUE(ex->Init(scan_, cal_.omni, FieldFeatureConfig{}).ok());
+  auto walk = std::make_unique<FieldFeatureWalk>();
+  ASSERT_TRUE(ex->Init(scan_, cal_.omni, FieldFeatureConfig{}, *walk).ok());
   auto f = std::make_unique<FieldFeatures>();
   ASSERT_TRUE(ex->Extract(view(), *lut_, *f).ok());
   ASSERT_EQ(f->obstacle_count, 1);
@@ -475,7 +478,8 @@ TEST_F(FeatureImageTest, AGoalIsFoundWhereTheCarpetEndsAGoalDepthBehindTheLine) 
   };
   Paint(goal_scene(0.6));
   auto ex = std::make_unique<FieldFeatureExtractor>();
-  ASSERT_TRUE(ex->Init(scan_, cal_.omni, FieldFeatureConfig{}).ok());
+  auto walk = std::make_unique<FieldFeatureWalk>();
+  ASSERT_TRUE(ex->Init(scan_, cal_.omni, FieldFeatureConfig{}, *walk).ok());
   auto f = std::make_unique<FieldFeatures>();
   ASSERT_TRUE(ex->Extract(view(), *lut_, *f).ok());
   ASSERT_EQ(f->goal_count, 1);
@@ -498,20 +502,59 @@ TEST_F(FeatureImageTest, AGoalIsFoundWhereTheCarpetEndsAGoalDepthBehindTheLine) 
 
 TEST_F(FeatureImageTest, BadFramesAndConfigurationsAreRefused) {
   auto ex = std::make_unique<FieldFeatureExtractor>();
+  auto walk = std::make_unique<FieldFeatureWalk>();
   auto f = std::make_unique<FieldFeatures>();
   EXPECT_EQ(ex->Extract(view(), *lut_, *f).code(), StatusCode::kFailedPrecondition);
   OmniScanConfig none = scan_;
   none.features.rays = 0;
-  EXPECT_EQ(ex->Init(none, cal_.omni, FieldFeatureConfig{}).code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(ex->Init(none, cal_.omni, FieldFeatureConfig{}, *walk).code(),
+            StatusCode::kInvalidArgument);
   none.features.rays = 48;  // not a power of two
-  EXPECT_EQ(ex->Init(none, cal_.omni, FieldFeatureConfig{}).code(), StatusCode::kInvalidArgument);
-  ASSERT_TRUE(ex->Init(scan_, cal_.omni, FieldFeatureConfig{}).ok());
+  EXPECT_EQ(ex->Init(none, cal_.omni, FieldFeatureConfig{}, *walk).code(),
+            StatusCode::kInvalidArgument);
+  ASSERT_TRUE(ex->Init(scan_, cal_.omni, FieldFeatureConfig{}, *walk).ok());
   YuyvImage small = view();
   small.width = 320;
   EXPECT_EQ(ex->Extract(small, *lut_, *f).code(), StatusCode::kInvalidArgument);
   YuyvImage null = view();
   null.data = nullptr;
   EXPECT_EQ(ex->Extract(null, *lut_, *f).code(), StatusCode::kInvalidArgument);
+  YuyvImage huge = view();
+  huge.stride_bytes = 1 << 23;  // offsets past 31 bits
+  EXPECT_EQ(ex->Extract(huge, *lut_, *f).code(), StatusCode::kInvalidArgument);
+}
+
+// The walk's offsets are for one stride: a frame with padded rows gets them rebuilt, and the
+// same features.
+TEST_F(FeatureImageTest, AnotherStrideGivesTheSameFeatures) {
+  auto ex = std::make_unique<FieldFeatureExtractor>();
+  auto walk = std::make_unique<FieldFeatureWalk>();
+  ASSERT_TRUE(ex->Init(scan_, cal_.omni, FieldFeatureConfig{}, *walk).ok());
+  const YuyvImage packed = view();
+  const int stride = packed.stride_bytes + 96;
+  std::vector<uint8_t> padded(static_cast<size_t>(stride) * packed.height, 0);
+  for (int v = 0; v < packed.height; ++v) {
+    std::memcpy(&padded[static_cast<size_t>(v) * stride],
+                packed.data + static_cast<size_t>(v) * packed.stride_bytes, 2 * packed.width);
+  }
+  YuyvImage wide = packed;
+  wide.data = padded.data();
+  wide.stride_bytes = stride;
+  auto a = std::make_unique<FieldFeatures>(), b = std::make_unique<FieldFeatures>();
+  const auto same = [&] {
+    ASSERT_GE(a->line_count, 8);
+    ASSERT_EQ(a->line_count, b->line_count);
+    ASSERT_EQ(a->obstacle_count, b->obstacle_count);
+    for (int i = 0; i < a->line_count; ++i) {
+      EXPECT_EQ(a->lines[i].x_m, b->lines[i].x_m);
+      EXPECT_EQ(a->lines[i].y_m, b->lines[i].y_m);
+    }
+  };
+  ASSERT_TRUE(ex->Extract(packed, *lut_, *a).ok());
+  ASSERT_TRUE(ex->Extract(wide, *lut_, *b).ok());
+  same();
+  ASSERT_TRUE(ex->Extract(packed, *lut_, *b).ok());  // and back
+  same();
 }
 
 TEST_F(FeatureImageTest, AFloodOfLinesIsBoundedAndCounted) {
@@ -520,7 +563,8 @@ TEST_F(FeatureImageTest, AFloodOfLinesIsBoundedAndCounted) {
     return std::fmod(std::hypot(gx, gy), 0.2) < 0.08 ? 230 : kGreenY;
   });
   auto ex = std::make_unique<FieldFeatureExtractor>();
-  ASSERT_TRUE(ex->Init(scan_, cal_.omni, FieldFeatureConfig{}).ok());
+  auto walk = std::make_unique<FieldFeatureWalk>();
+  ASSERT_TRUE(ex->Init(scan_, cal_.omni, FieldFeatureConfig{}, *walk).ok());
   auto f = std::make_unique<FieldFeatures>();
   ASSERT_TRUE(ex->Extract(view(), *lut_, *f).ok());
   EXPECT_EQ(f->line_count, FieldFeatures::kMaxLinePoints);

@@ -31,8 +31,28 @@ float RayAngle(int ray, int rays) {
 
 }  // namespace
 
+void FieldFeatureExtractor::BuildWalk(int stride) {
+  FieldFeatureWalk& w = *walk_;
+  uint32_t last = 0;
+  for (int i = 0; i < OmniFeatureRays::kMaxRays; ++i) {
+    uint32_t* const row = w.at + i * FieldFeatureWalk::kRowEntries;
+    for (int k = 0; k < FieldFeatureWalk::kRowEntries; ++k) {
+      if (i < scan_.features.rays && k < inside_[i]) {
+        int u, v;
+        OmniRayPixel(rays_[i], radii_q4_[k], u, v);
+        last =
+            static_cast<uint32_t>(v * stride + (u & ~1) * 2) | (static_cast<uint32_t>(u & 1) << 31);
+      }
+      row[k] = last;
+    }
+  }
+  for (int k = 0; k < kRayLookAhead; ++k)
+    w.at[OmniFeatureRays::kMaxRays * FieldFeatureWalk::kRowEntries + k] = last;
+  w.stride = stride;
+}
+
 Status FieldFeatureExtractor::Init(const OmniScanConfig& scan, const OmniCalibration& calibration,
-                                   const FieldFeatureConfig& config) {
+                                   const FieldFeatureConfig& config, FieldFeatureWalk& walk) {
   ready_ = false;
   if (!calibration.valid) {
     return Status(StatusCode::kFailedPrecondition, "field features: omni calibration not valid");
@@ -46,8 +66,6 @@ Status FieldFeatureExtractor::Init(const OmniScanConfig& scan, const OmniCalibra
     return Status(StatusCode::kInvalidArgument, "field features: bad feature ray set");
   }
   for (int k = 0; k < n_radii_; ++k) radii_q4_[k] = RadiusQ4(radii[k]);
-  for (int k = n_radii_; k < n_radii_ + kRayLookAhead; ++k)
-    radii_q4_[k] = n_radii_ > 0 ? radii_q4_[n_radii_ - 1] : 0;
   static_assert(OmniFeatureRays::kMaxRadii <= 255);
   blocked_ = 0;
   for (int i = 0; i < scan.features.rays; ++i) {
@@ -72,6 +90,8 @@ Status FieldFeatureExtractor::Init(const OmniScanConfig& scan, const OmniCalibra
   scan_ = scan;
   cal_ = &calibration;
   config_ = config;
+  walk_ = &walk;
+  BuildWalk(2 * kFrameWidth);
   ready_ = true;
   return Status::Ok();
 }
@@ -180,25 +200,16 @@ void FieldFeatureExtractor::ScanRay(const YuyvImage& img, const ColorLut& lut, i
   out.lookups += static_cast<uint32_t>(n);
   // Locals: the writes to `out` below may alias anything the compiler cannot see through, so
   // members read in the loop would be reloaded every sample (the hot loop of the feature pass).
-  const OmniRayQ ray_q = q;
   const uint8_t* const data = img.data;
-  const int stride = img.stride_bytes;
-  const int32_t* const radii = radii_q4_;
-  const uintptr_t base = reinterpret_cast<uintptr_t>(data);
-  const auto ustride = static_cast<uintptr_t>(stride);
+  const uint32_t* const at = walk_->at + ray * FieldFeatureWalk::kRowEntries;
   for (int k = 0; k < n; ++k) {
-    int u, v;
     if constexpr (kHintRayAhead) {
-      // A cold frame: hint the sample kRayLookAhead further out. The address is formed as an
-      // integer and may lie past the frame; a hint never faults.
-      OmniRayPixel(ray_q, radii[k + kRayLookAhead], u, v);
-      __builtin_prefetch(reinterpret_cast<const void*>(base + static_cast<uintptr_t>(v) * ustride +
-                                                       static_cast<uintptr_t>(u) * 2));
+      // A cold frame: hint the sample kRayLookAhead further out (a hint never faults).
+      __builtin_prefetch(data + (at[k + kRayLookAhead] & 0x7fffffffu));
     }
-    OmniRayPixel(ray_q, radii[k], u, v);
-    // Inside the frame by construction (inside_), so no bounds test in this loop.
-    const uint8_t* pair = data + v * stride + (u & ~1) * 2;
-    const ColorClass c = lut.Classify(pair[(u & 1) * 2], pair[1], pair[3]);
+    const uint32_t w = at[k];
+    const uint8_t* pair = data + (w & 0x7fffffffu);
+    const ColorClass c = lut.Classify(pair[(w >> 31) * 2], pair[1], pair[3]);
     if (c == ColorClass::kField) {
       if (k == last_green + 1) {  // the carpet goes on (most samples): nothing else changes
         last_green = k;
@@ -467,9 +478,11 @@ Status FieldFeatureExtractor::Extract(const YuyvImage& omni, const ColorLut& lut
   out.lookups = 0;
   if (!ready_) return Status(StatusCode::kFailedPrecondition, "field features: not initialised");
   if (omni.data == nullptr || omni.width != kFrameWidth || omni.height != kFrameHeight ||
-      omni.stride_bytes < 2 * omni.width) {
+      omni.stride_bytes < 2 * omni.width ||
+      static_cast<int64_t>(omni.stride_bytes) * omni.height >= (int64_t{1} << 31)) {
     return Status(StatusCode::kInvalidArgument, "field features: omni frame size or stride wrong");
   }
+  if (omni.stride_bytes != walk_->stride) BuildWalk(omni.stride_bytes);
   for (int i = 0; i < scan_.features.rays; ++i) {
     hits_[i] = RayHit{};
     if (!Blocked(i)) ScanRay(omni, lut, i, out);

@@ -79,8 +79,8 @@ struct FieldFeatures {
 };
 
 /// Samples the feature walk hints ahead of the one it reads (a cold frame, one ray at a time).
-/// Hosts only: the hint's 6 instructions a sample would add ~6 % to the device's counted budget
-/// (DESIGN section 5), for a gain not measured on its cache (core/field/README.md).
+/// Hosts only: the device's budget is counted in instructions (DESIGN section 5), and the hint's
+/// gain there is not measured (core/field/README.md).
 inline constexpr int kRayLookAhead = 12;
 #if defined(__arm__)
 inline constexpr bool kHintRayAhead = false;
@@ -88,14 +88,26 @@ inline constexpr bool kHintRayAhead = false;
 inline constexpr bool kHintRayAhead = true;
 #endif
 
+/// The feature rays' pixels as frame byte offsets, ray by ray, for one frame stride: built by the
+/// extractor once per calibration (and again should the stride change), then only read, so the
+/// firmware keeps it in external RAM with the scan tables (PipelineTables, 48 KB). The walk reads
+/// an offset where it computed a position: ~10 instructions a sample fewer on the M7.
+struct FieldFeatureWalk {
+  static constexpr int kRowEntries = OmniFeatureRays::kMaxRadii;
+  // Ray i's samples at [i * kRowEntries ...]: the pixel pair's offset, bit 31 set for the pair's
+  // second pixel; past a ray's last sample in the frame, its last. Padded for the look-ahead.
+  uint32_t at[OmniFeatureRays::kMaxRays * kRowEntries + kRayLookAhead] = {};
+  int stride = 0;  // the frame stride the offsets are for
+};
+
 class FieldFeatureExtractor {
  public:
   /// `scan` must be the OmniScanConfig the omni scan table was built from (features.rays > 0);
-  /// `calibration` must outlive the extractor.
+  /// `calibration` and `walk` must outlive the extractor (`walk` is its alone).
   /// Errors: kInvalidArgument (no feature rays or bad ray set), kFailedPrecondition (omni
   /// calibration not valid).
   Status Init(const OmniScanConfig& scan, const OmniCalibration& calibration,
-              const FieldFeatureConfig& config);
+              const FieldFeatureConfig& config, FieldFeatureWalk& walk);
   bool ready() const { return ready_; }
   /// Extracts line points and obstacles. Errors: kFailedPrecondition (not initialised),
   /// kInvalidArgument (image size differs from the calibration's frame size / null data).
@@ -137,8 +149,9 @@ class FieldFeatureExtractor {
   const OmniCalibration* cal_ = nullptr;
   FieldFeatureConfig config_;
   bool ready_ = false;
-  // Padded with the last radius for the walk's look-ahead (ScanRay).
-  int32_t radii_q4_[OmniFeatureRays::kMaxRadii + kRayLookAhead] = {};
+  int32_t radii_q4_[OmniFeatureRays::kMaxRadii] = {};
+  FieldFeatureWalk* walk_ = nullptr;
+  void BuildWalk(int stride);
   uint8_t inside_[OmniFeatureRays::kMaxRays] = {};  // leading samples of each ray in the frame
   OmniRayQ rays_[OmniFeatureRays::kMaxRays] = {};
   uint64_t blocked_ = 0;  // rays in a strut wedge
