@@ -236,6 +236,16 @@ void OmniRaySigma(const OmniCalibration& cal, const BallDetection& det, const Ra
 
 OmniScanConfig PipelineOmniScan(const OmniCalibration& cal, const PipelineConfig& config) {
   OmniScanConfig scan = ReferenceOmniScanConfig(cal.center_u, cal.center_v);
+  const OmniSelfMask& self = cal.self_mask;
+  static_assert(OmniSelfMask::kMaxSectors <= OmniScanConfig::kMaxStruts);
+  if (self.known) {  // this robot's own body, struts and rim, not the reference rig's
+    scan.inner_radius_px = self.inner_radius_px;
+    scan.outer_radius_px = self.outer_radius_px;
+    scan.strut_count = self.sector_count;
+    for (int i = 0; i < self.sector_count; ++i) {
+      scan.struts[i] = {self.sectors[i].angle_deg, self.sectors[i].half_width_deg};
+    }
+  }
   if (config.field_features) scan.features = FeatureRays(cal, scan, config);
   return scan;
 }
@@ -466,7 +476,7 @@ Status Pipeline::Init(const RigCalibration& calibration, const ColorLut& lut,
   }
   if (calibration.persp.valid) {
     BV_TRY(tables_.persp.BuildPersp(ReferencePerspScanConfig(), calibration.persp.width_px,
-                                  calibration.persp.height_px));
+                                    calibration.persp.height_px));
     BallFinderConfig finder = config_.finder;
     finder.fit_circles = config_.persp_circles;
     finder.check = nullptr;

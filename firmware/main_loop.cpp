@@ -147,6 +147,11 @@ void MainLoop::InitPipeline() {
   } else {
     status_.fault_flags |= kFaultPipelineNotReady;
   }
+  if (pipeline_ready_ && calibration_.omni.valid && !calibration_.omni.self_mask.known) {
+    status_.fault_flags |= kFaultNoSelfMask;
+  } else {
+    status_.fault_flags &= ~kFaultNoSelfMask;
+  }
 }
 
 size_t MainLoop::Uploads::capacity(protocol::UploadTarget target) const {

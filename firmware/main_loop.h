@@ -106,6 +106,8 @@ enum FaultFlags : uint32_t {
   kFaultCameraStart = 1u << 2,       // Camera::Start failed
   kFaultTimestampJump = 1u << 3,     // a pair's exposure time jumped forward by more than
                                      // kTimestampJumpPeriods frame periods (sticky)
+  kFaultNoSelfMask = 1u << 4,  // the omni calibration has no self-mask: the reference rig's body,
+                               // rim and struts stand in for this robot's
 };
 
 /// A forward gap between consecutive pairs' exposure times above this many frame periods is

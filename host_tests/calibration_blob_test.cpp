@@ -61,6 +61,10 @@ std::vector<uint8_t> Serialize(const RigCalibration& c) {
   return b;
 }
 
+// The self-mask section (version 4) of a calibration without one: tag, flag, two radii, no
+// sectors, the 64-entry outline.
+constexpr size_t kSelfSectionBytes = 4 + 1 + 4 + 4 + 1 + 64;
+
 bool Equal(const RigCalibration& a, const RigCalibration& b) {
   std::vector<uint8_t> x = Serialize(a), y = Serialize(b);
   return x == y;
@@ -175,7 +179,7 @@ TEST(CalibrationBlob, Version1BlobLoadsWithTheMslField) {
   c.omni.azimuth_harmonics_rad[1] = 0.004f;
   std::vector<uint8_t> b = Serialize(c);
   constexpr size_t kFieldSectionBytes = 4 + 15 * 4, kAzimuthSectionBytes = 4 + 4 * 4;
-  TruncateAndLabel(b, kFieldSectionBytes + kAzimuthSectionBytes, 1);
+  TruncateAndLabel(b, kFieldSectionBytes + kAzimuthSectionBytes + kSelfSectionBytes, 1);
   RigCalibration back;
   back.field.length_m = 1.0f;  // overwritten with the default
   const Status st = ParseCalibration(b, back);
@@ -206,13 +210,13 @@ TEST(CalibrationBlob, AzimuthHarmonicsVersion2AndRange) {
   for (int k = 0; k < 4; ++k) EXPECT_EQ(back.omni.azimuth_harmonics_rad[k], h[k]);
   EXPECT_TRUE(Equal(back, c));
 
-  TruncateAndLabel(b, 4 + 4 * 4, 2);
+  TruncateAndLabel(b, 4 + 4 * 4 + kSelfSectionBytes, 2);
   ASSERT_TRUE(ParseCalibration(b, back).ok());
   for (float x : back.omni.azimuth_harmonics_rad) EXPECT_EQ(x, 0.0f);
   EXPECT_EQ(back.field.length_m, c.field.length_m);
 
   const size_t payload = Serialize(Example()).size() - kBlobHeaderBytes;
-  const size_t azim = payload - 4 * 4;
+  const size_t azim = payload - kSelfSectionBytes - 4 * 4;
   EXPECT_TRUE(ParseWithPayloadEdit(azim, 0.05f).ok());
   for (float bad : {0.2f, -0.11f, NAN}) {
     const Status st = ParseWithPayloadEdit(azim + 8, bad);
@@ -227,9 +231,106 @@ TEST(CalibrationBlob, AzimuthHarmonicsVersion2AndRange) {
   EXPECT_EQ(SerializeCalibration(c, out).status().code(), StatusCode::kInvalidArgument);
 }
 
+OmniSelfMask ExampleMask() {
+  OmniSelfMask m;
+  m.known = true;
+  m.inner_radius_px = 54.0f;
+  m.outer_radius_px = 219.0f;
+  m.sector_count = 4;
+  const float angles[] = {20.0f, 110.5f, 200.0f, 359.5f};
+  for (int i = 0; i < 4; ++i) m.sectors[i] = {angles[i], 2.5f};
+  for (int i = 0; i < OmniSelfMask::kOutlineDirections; ++i) m.body_px[i] = 48 + i % 5;
+  return m;
+}
+
+// The self-mask (version 4) round-trips; a version-3 blob loads without one; a mask that is
+// inconsistent or covers most of the image is refused by name, in the blob as at serialising.
+TEST(CalibrationBlob, SelfMaskRoundTripsAndBadMasksAreRefused) {
+  RigCalibration c = Example();
+  c.omni.self_mask = ExampleMask();
+  std::vector<uint8_t> b = Serialize(c);
+  RigCalibration back;
+  ASSERT_TRUE(ParseCalibration(b, back).ok());
+  const OmniSelfMask& m = back.omni.self_mask;
+  ASSERT_TRUE(m.known);
+  EXPECT_EQ(m.inner_radius_px, 54.0f);
+  EXPECT_EQ(m.outer_radius_px, 219.0f);
+  ASSERT_EQ(m.sector_count, 4);
+  EXPECT_EQ(m.sectors[3].angle_deg, 359.5f);
+  EXPECT_EQ(m.body_px[7], 50);
+  EXPECT_TRUE(Equal(back, c));
+
+  TruncateAndLabel(b, 4 + 1 + 4 + 4 + 1 + 4 * 8 + 64, 3);
+  back.omni.self_mask = ExampleMask();
+  ASSERT_TRUE(ParseCalibration(b, back).ok());
+  EXPECT_FALSE(back.omni.self_mask.known);
+  EXPECT_EQ(back.omni.self_mask.sector_count, 0);
+
+  const auto refused = [&](OmniSelfMask bad, const char* what) {
+    RigCalibration r = Example();
+    r.omni.self_mask = bad;
+    std::vector<uint8_t> out(kCalibrationBlobMaxBytes);
+    const Status st = SerializeCalibration(r, out).status();
+    EXPECT_EQ(st.code(), StatusCode::kInvalidArgument) << what;
+    EXPECT_NE(std::strstr(st.message(), what), nullptr) << st.message();
+  };
+  OmniSelfMask bad = ExampleMask();
+  bad.inner_radius_px = 215.0f;
+  refused(bad, "radii");
+  bad = ExampleMask();
+  for (int i = 0; i < 4; ++i) bad.sectors[i].half_width_deg = 16.0f;  // 128 deg in all
+  refused(bad, "120 deg");
+  bad = ExampleMask();
+  bad.sectors[1].angle_deg = 360.0f;
+  refused(bad, "sector angle");
+  bad = ExampleMask();
+  bad.body_px[3] = 230;
+  refused(bad, "body outline");
+  bad = OmniSelfMask{};
+  bad.sector_count = 1;
+  refused(bad, "unknown");
+  // In a stored blob too: a sector's half width edited to 70 deg.
+  c.omni.self_mask = ExampleMask();
+  b = Serialize(c);
+  const size_t half0 = b.size() - 64 - 4 * 8 + 4;
+  const float wide = 70.0f;
+  std::memcpy(b.data() + half0, &wide, 4);
+  const uint32_t crc =
+      Crc32(std::span<const uint8_t>(b.data() + kBlobHeaderBytes, b.size() - kBlobHeaderBytes));
+  std::memcpy(b.data() + 12, &crc, 4);
+  back = RigCalibration{};
+  const Status st = ParseCalibration(b, back);
+  EXPECT_EQ(st.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(std::strstr(st.message(), "half width"), nullptr) << st.message();
+  EXPECT_FALSE(back.omni.self_mask.known);  // untouched
+}
+
+// The JSON form: written when known, read strictly, absent = none learned.
+TEST(CalibrationFile, SelfMaskSectionRoundTrips) {
+  const std::string dir = test::TempDir("bv_calib_blob_mask");
+  std::string error;
+  RigCalibration c = Example();
+  c.omni.self_mask = ExampleMask();
+  ASSERT_TRUE(cli::SaveCalibrationJson(dir + "/m.json", c, error)) << error;
+  RigCalibration back;
+  ASSERT_TRUE(cli::LoadCalibrationFile(dir + "/m.json", back, error)) << error;
+  EXPECT_TRUE(Equal(back, c));
+  std::ifstream in(dir + "/m.json");
+  nlohmann::json j = nlohmann::json::parse(in);
+  j["omni"]["self_mask"]["sectors"].push_back({100.0, 50.0});
+  std::ofstream(dir + "/bad.json") << j.dump();
+  EXPECT_FALSE(cli::LoadCalibrationFile(dir + "/bad.json", back, error));
+  EXPECT_NE(error.find("self_mask"), std::string::npos) << error;
+  j["omni"].erase("self_mask");
+  std::ofstream(dir + "/none.json") << j.dump();
+  ASSERT_TRUE(cli::LoadCalibrationFile(dir + "/none.json", back, error)) << error;
+  EXPECT_FALSE(back.omni.self_mask.known);
+}
+
 TEST(CalibrationBlob, CorruptFieldValuesAreRefusedByName) {
   const size_t payload = Serialize(Example()).size() - kBlobHeaderBytes;
-  const size_t field = payload - (4 + 4 * 4) - 15 * 4;  // length_m, width_m, line_width_m, ...
+  const size_t field =
+      payload - kSelfSectionBytes - (4 + 4 * 4) - 15 * 4;  // length_m, width_m, line_width_m, ...
   EXPECT_TRUE(ParseWithPayloadEdit(field, 16.0f).ok());
   const Status nan = ParseWithPayloadEdit(field, NAN);
   EXPECT_EQ(nan.code(), StatusCode::kInvalidArgument);

@@ -333,7 +333,9 @@ TEST(OmniCalibrate, CarpetRunEndToEnd) {
   RigCalibration rig;
   std::string error;
   ASSERT_TRUE(cli::LoadCalibrationFile(out, rig, error)) << error;
-  EXPECT_FALSE(rig.persp.valid);  // only its own section was written
+  EXPECT_FALSE(rig.persp.valid);          // only its own section was written
+  EXPECT_TRUE(rig.omni.self_mask.known);  // learned from the same run (omni_selfmask_test.cpp)
+  EXPECT_EQ(rig.omni.self_mask.sector_count, 3);
   int flagged = 0;
   for (uint8_t f : rig.omni.sector_flags) flagged += f ? 1 : 0;
   EXPECT_LT(flagged, 12);

@@ -175,10 +175,11 @@ class MainLoopTest : public ::testing::Test {
   }
   // A valid demo calibration and the built-in table in storage: the pipeline runs (features on).
   void InstallDemoBlobs(uint32_t* calibration_id = nullptr, uint32_t* lut_id = nullptr,
-                        bool with_lut = true) {
+                        bool with_lut = true, const OmniSelfMask* self_mask = nullptr) {
     static ColorLut lut;
     cli::FillBuiltInLut(lut);
     RigCalibration cal = cli::MakeDemoCalibration();
+    if (self_mask != nullptr) cal.omni.self_mask = *self_mask;
     cal.lut_id = lut.Id();
     if (calibration_id != nullptr) *calibration_id = cal.calibration_id;
     if (lut_id != nullptr) *lut_id = cal.lut_id;
@@ -328,6 +329,34 @@ TEST_F(MainLoopTest, WithCalibrationAndLutThePipelineRunsOnEveryPair) {
   EXPECT_EQ(s.lut_id, lut_id);
   EXPECT_EQ(s.pipeline_errors, 0u);
   EXPECT_EQ(s.fault_flags & kFaultPipelineNotReady, 0u);
+}
+
+// A calibration without a self-mask runs on the reference rig's geometry, and the status says so;
+// one with a mask clears the flag.
+TEST_F(MainLoopTest, TheStatusSaysWhetherTheOmniCalibrationHasASelfMask) {
+  InstallDemoBlobs();
+  camera_.AddRegular(3, 33333);
+  Run();
+  ASSERT_TRUE(loop_->pipeline_ready());
+  EXPECT_NE(Decode(uart_.bytes()).last_status.fault_flags & kFaultNoSelfMask, 0u);
+}
+
+TEST_F(MainLoopTest, ALearnedSelfMaskClearsTheNoSelfMaskFlag) {
+  OmniSelfMask mask;
+  mask.known = true;
+  mask.inner_radius_px = 54.0f;
+  mask.outer_radius_px = 219.0f;
+  mask.sector_count = 3;
+  const float angles[] = {14.5f, 134.8f, 256.5f};
+  for (int i = 0; i < 3; ++i) mask.sectors[i] = {angles[i], 2.5f};
+  for (uint8_t& b : mask.body_px) b = 50;
+  InstallDemoBlobs(nullptr, nullptr, true, &mask);
+  camera_.AddRegular(3, 33333);
+  Run();
+  ASSERT_TRUE(loop_->pipeline_ready());
+  const Decoded d = Decode(uart_.bytes());
+  EXPECT_EQ(d.last_status.fault_flags & kFaultNoSelfMask, 0u);
+  EXPECT_EQ(d.balls, 3);
 }
 
 TEST_F(MainLoopTest, StatusAtLeastOncePerSecondOfExposureTimeWithFrameRate) {

@@ -105,8 +105,12 @@ class CalibrationJson(Base):
             self.assertIn("expected an integer in [0, 4294967295]", r.stderr)
 
     def test_unknown_version_format_model(self):
-        cases = [(lambda d: d.__setitem__("version", 4), "version: got 4 (integer), expected "
-                  "an integer in [1, 3]"),
+        cases = [(lambda d: d.__setitem__("version", 5), "version: got 5 (integer), expected "
+                  "an integer in [1, 4]"),
+                 (lambda d: d["omni"].__setitem__("self_mask", {
+                     "inner_radius_px": 54, "outer_radius_px": 219, "body_px": [50] * 64,
+                     "sectors": [[10, 40], [100, 40]]}),
+                  "self-mask: sectors cover more than 120 deg"),
                  (lambda d: d.__setitem__("field", {"length": "18"}),
                   'field.length: got "18" (string), expected a number in [0.5, 40.0]'),
                  (lambda d: d.__setitem__("field", {"goal_area_width": 7.0}),

@@ -178,6 +178,39 @@ TEST_F(PipelineTest, AHalfHiddenBallsOffsetIsInTheReportedSigma) {
 // A region a little smaller than the predicted silhouette is a ball in full view that lost part of
 // its rim (lobs at 4-6 m: 2-4 % in the persp image), not a partly hidden one; past the tolerance
 // the whole missing radius counts, and a larger region past 10 % counts twice what it adds.
+// The omni scan geometry: the calibration's self-mask where one was learned (this robot's body,
+// rim and struts), else the reference rig's.
+TEST(PipelineOmniScanTest, TheSelfMaskReplacesTheReferenceRigsGeometry) {
+  OmniCalibration omni = cli::MakeDemoCalibration().omni;
+  ASSERT_FALSE(omni.self_mask.known);
+  const OmniScanConfig ref = ReferenceOmniScanConfig(omni.center_u, omni.center_v);
+  const OmniScanConfig fallback = PipelineOmniScan(omni, PipelineConfig{});
+  EXPECT_EQ(fallback.inner_radius_px, ref.inner_radius_px);
+  EXPECT_EQ(fallback.strut_count, ref.strut_count);
+  OmniSelfMask& m = omni.self_mask;
+  m.known = true;
+  m.inner_radius_px = 61.0f;
+  m.outer_radius_px = 236.0f;
+  m.sector_count = 4;
+  const float angles[] = {20.0f, 110.0f, 200.0f, 290.0f};
+  for (int i = 0; i < 4; ++i) m.sectors[i] = {angles[i], 3.0f};
+  const OmniScanConfig own = PipelineOmniScan(omni, PipelineConfig{});
+  EXPECT_EQ(own.inner_radius_px, 61.0f);
+  EXPECT_EQ(own.outer_radius_px, 236.0f);
+  ASSERT_EQ(own.strut_count, 4);
+  for (int i = 0; i < 4; ++i) {
+    EXPECT_EQ(own.struts[i].angle_deg, angles[i]);
+    EXPECT_EQ(own.struts[i].half_width_deg, 3.0f);
+  }
+  // A feature ray inside a mask sector is not walked (no obstacle can be reported there).
+  const int rays = own.features.rays;
+  ASSERT_GT(rays, 0);
+  int blocked = 0;
+  for (int i = 0; i < rays; ++i) blocked += OmniFeatureRayBlocked(own, i) ? 1 : 0;
+  EXPECT_GE(blocked, 4);
+  EXPECT_TRUE(OmniFeatureRayBlocked(own, static_cast<int>(std::lround(110.0f / 360.0f * rays))));
+}
+
 TEST(SizeMisfitTest, ARimLostInFullViewIsNotAHiddenBall) {
   ImagePrediction pred;
   pred.valid = true;

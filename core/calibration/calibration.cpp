@@ -315,9 +315,47 @@ Status OmniProject(const OmniCalibration& cal, const Eigen::Vector3f& p_robot, f
   return OmniGroundToPixel(cal, p_robot.x() * s, p_robot.y() * s, u_px, v_px);
 }
 
+Status ValidateSelfMask(const OmniSelfMask& m) {
+  const bool finite_radii = std::isfinite(m.inner_radius_px) && std::isfinite(m.outer_radius_px);
+  if (!m.known) {
+    bool zero = m.sector_count == 0 && m.inner_radius_px == 0.0f && m.outer_radius_px == 0.0f;
+    for (uint8_t b : m.body_px) zero = zero && b == 0;
+    return zero ? Status()
+                : Status(StatusCode::kInvalidArgument, "self-mask: unknown, yet not empty");
+  }
+  if (!finite_radii || !(m.inner_radius_px >= 1.0f) || !(m.outer_radius_px <= 2048.0f) ||
+      !(m.outer_radius_px > m.inner_radius_px + 8.0f)) {
+    return Status(StatusCode::kInvalidArgument,
+                  "self-mask: radii out of range (need 1 <= inner < outer - 8 <= 2040 px)");
+  }
+  for (uint8_t b : m.body_px) {
+    if (b >= m.outer_radius_px)
+      return Status(StatusCode::kInvalidArgument,
+                    "self-mask: body outline beyond the outer radius");
+  }
+  if (m.sector_count < 0 || m.sector_count > OmniSelfMask::kMaxSectors) {
+    return Status(StatusCode::kInvalidArgument, "self-mask: more than 8 sectors");
+  }
+  float masked = 0;
+  for (int i = 0; i < m.sector_count; ++i) {
+    const OmniSelfMask::Sector& c = m.sectors[i];
+    if (!(c.angle_deg >= 0.0f && c.angle_deg < 360.0f) ||
+        !(c.half_width_deg > 0.0f && c.half_width_deg <= 45.0f)) {
+      return Status(StatusCode::kInvalidArgument,
+                    "self-mask: sector angle outside [0, 360) or half width outside (0, 45] deg");
+    }
+    masked += 2.0f * c.half_width_deg;
+  }
+  if (masked > OmniSelfMask::kMaxMaskedDeg) {
+    return Status(StatusCode::kInvalidArgument,
+                  "self-mask: sectors cover more than 120 deg of the image (most of it: refused)");
+  }
+  return Status();
+}
+
 // --------------------------------------------------------------------------------------------
 // Blob. Payload (little endian): ids, ball radius, persp section, omni section, field section
-// (version 2), omni azimuth harmonics (version 3); every float
+// (version 2), omni azimuth harmonics (version 3), omni self-mask (version 4); every float
 // is checked when parsing. Parsing runs twice over the payload: once to validate (dst null),
 // once to store, so `out` is untouched on any error without a second RigCalibration on the
 // stack.
@@ -328,6 +366,7 @@ constexpr uint32_t kPerspTag = 0x50455253u;    // "SREP"
 constexpr uint32_t kOmniTag = 0x494E4D4Fu;     // "OMNI"
 constexpr uint32_t kFieldTag = 0x444C4946u;    // "FILD", from blob version 2
 constexpr uint32_t kAzimuthTag = 0x4D495A41u;  // "AZIM", from blob version 3
+constexpr uint32_t kSelfTag = 0x464C4553u;     // "SELF", from blob version 4
 constexpr float kMaxHarmonicRad = 0.1f;
 
 // The field section's floats, in blob order.
@@ -379,6 +418,19 @@ void WriteOmni(ByteWriter& w, const OmniCalibration& o) {
 void WriteAzimuth(ByteWriter& w, const OmniCalibration& o) {
   w.U32(kAzimuthTag);
   for (float f : o.azimuth_harmonics_rad) w.F32(f);
+}
+
+void WriteSelfMask(ByteWriter& w, const OmniSelfMask& m) {
+  w.U32(kSelfTag);
+  w.U8(m.known ? 1 : 0);
+  w.F32(m.inner_radius_px);
+  w.F32(m.outer_radius_px);
+  w.U8(static_cast<uint8_t>(m.sector_count));
+  for (int i = 0; i < m.sector_count && i < OmniSelfMask::kMaxSectors; ++i) {
+    w.F32(m.sectors[i].angle_deg);
+    w.F32(m.sectors[i].half_width_deg);
+  }
+  for (uint8_t b : m.body_px) w.U8(b);
 }
 
 void WriteField(ByteWriter& w, const FieldConfig& f) {
@@ -522,6 +574,32 @@ void ReadAzimuth(CheckedReader& r, OmniCalibration* dst) {
   }
 }
 
+// An unknown mask is all zero; a known one is refused when it masks most of the image.
+void ReadSelfMask(CheckedReader& r, OmniSelfMask* dst) {
+  if (r.U32() != kSelfTag) r.Fail(StatusCode::kDataLoss, "calibration blob: self-mask tag missing");
+  OmniSelfMask m;
+  const uint8_t known = r.U8();
+  if (known > 1) r.Fail(StatusCode::kInvalidArgument, "calibration blob: self-mask flag not 0/1");
+  m.known = known == 1;
+  m.inner_radius_px = r.F(-kBig, kBig, "calibration blob: self-mask radius not finite");
+  m.outer_radius_px = r.F(-kBig, kBig, "calibration blob: self-mask radius not finite");
+  m.sector_count = r.U8();
+  if (m.sector_count > OmniSelfMask::kMaxSectors) {
+    r.Fail(StatusCode::kInvalidArgument, "calibration blob: more than 8 self-mask sectors");
+    m.sector_count = 0;
+  }
+  for (int i = 0; i < m.sector_count; ++i) {
+    m.sectors[i].angle_deg = r.F(-kBig, kBig, "calibration blob: self-mask angle not finite");
+    m.sectors[i].half_width_deg = r.F(-kBig, kBig, "calibration blob: self-mask width not finite");
+  }
+  for (uint8_t& b : m.body_px) b = r.U8();
+  if (r.status().ok()) {
+    const Status valid = ValidateSelfMask(m);
+    if (!valid.ok()) r.Fail(StatusCode::kInvalidArgument, valid.message());
+  }
+  if (dst != nullptr) *dst = m;
+}
+
 // Version 1 blobs have no field section: the MSL defaults.
 void ReadField(CheckedReader& r, FieldConfig* dst) {
   if (r.U32() != kFieldTag) r.Fail(StatusCode::kDataLoss, "calibration blob: field tag missing");
@@ -557,6 +635,11 @@ void ReadRig(CheckedReader& r, RigCalibration* dst, uint16_t version) {
   } else if (dst != nullptr) {
     for (float& h : dst->omni.azimuth_harmonics_rad) h = 0.0f;
   }
+  if (version >= 4) {
+    ReadSelfMask(r, dst != nullptr ? &dst->omni.self_mask : nullptr);
+  } else if (dst != nullptr) {
+    dst->omni.self_mask = OmniSelfMask{};
+  }
   if (r.status().ok() && r.remaining() != 0) {
     r.Fail(StatusCode::kDataLoss, "calibration blob: trailing bytes in payload");
   }
@@ -576,6 +659,7 @@ Result<size_t> SerializeCalibration(const RigCalibration& cal, std::span<uint8_t
   WriteOmni(w, cal.omni);
   WriteField(w, cal.field);
   WriteAzimuth(w, cal.omni);
+  WriteSelfMask(w, cal.omni.self_mask);
   if (!w.ok()) {
     return Status(StatusCode::kResourceExhausted, "calibration blob: output buffer too small");
   }

@@ -30,6 +30,30 @@ struct PerspCalibration {
   Eigen::Vector3f t_robot_cam = Eigen::Vector3f::Zero();
 };
 
+/// What of the omni image is the robot itself (body, mirror holder, struts, rim): learned by
+/// `calibrate omni` from the turning run, where it is what does not move with the world.
+/// Angles are image angles atan2(v - center_v, u - center_u) in degrees, v down, [0, 360).
+struct OmniSelfMask {
+  static constexpr int kMaxSectors = 8;
+  static constexpr int kOutlineDirections = 64;
+  /// Masked sectors together may cover at most this much of the circle.
+  static constexpr float kMaxMaskedDeg = 120.0f;
+  struct Sector {
+    float angle_deg = 0;       // centre
+    float half_width_deg = 0;  // (0, 45]
+  };
+  bool known = false;         // false: none learned (the reference rig's geometry stands in)
+  float inner_radius_px = 0;  // the body ends here in every direction: no scan inside
+  float outer_radius_px = 0;  // the mirror's usable circle
+  int sector_count = 0;
+  Sector sectors[kMaxSectors];
+  uint8_t body_px[kOutlineDirections] = {};  // body outline: radius in direction i * 360 / 64 deg
+};
+
+/// kInvalidArgument naming what is wrong: radii out of order, a sector out of range, more than
+/// kMaxSectors, sectors covering more than kMaxMaskedDeg; an unknown mask must be all zero.
+Status ValidateSelfMask(const OmniSelfMask& m);
+
 /// The paper's model-free omni calibration: image centre + per-direction piecewise-linear map
 /// from image distance (px) to ground distance (m), 45 sectors x 12 support vectors.
 struct OmniCalibration {
@@ -54,6 +78,7 @@ struct OmniCalibration {
   // b2 sin 2phi, fitted by the calibration from the carpet's centre line in every direction.
   // All zero in blobs before version 3.
   float azimuth_harmonics_rad[4] = {};  // a1, b1, a2, b2; each within +-0.1 rad
+  OmniSelfMask self_mask;               // unknown in blobs before version 4
 };
 
 /// h(phi) of OmniCalibration::azimuth_harmonics_rad.
@@ -99,9 +124,9 @@ Status OmniProject(const OmniCalibration& cal, const Eigen::Vector3f& p_robot, f
                    float& v_px);
 
 // --- the device blob (BlobKind::kCalibration, see core/common/blob.h) ---
-// Version 2 added the field section, version 3 the omni azimuth harmonics; older blobs still
-// load (the MSL field, no harmonics).
-inline constexpr uint16_t kCalibrationBlobVersion = 3;
+// Version 2 added the field section, version 3 the omni azimuth harmonics, version 4 the omni
+// self-mask; older blobs still load (the MSL field, no harmonics, no self-mask).
+inline constexpr uint16_t kCalibrationBlobVersion = 4;
 /// Upper bound of a serialised calibration blob, header included.
 inline constexpr size_t kCalibrationBlobMaxBytes = 4096;
 Result<size_t> SerializeCalibration(const RigCalibration& cal, std::span<uint8_t> out);

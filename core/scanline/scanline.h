@@ -45,7 +45,7 @@ struct OmniFeatureRays {
 };
 
 struct OmniScanConfig {
-  static constexpr int kMaxStruts = 4;
+  static constexpr int kMaxStruts = 8;
   float center_u = 0, center_v = 0;  // from OmniCalibration::center_u/v
   float inner_radius_px = 0;         // robot's own body
   float outer_radius_px = 0;         // mirror rim

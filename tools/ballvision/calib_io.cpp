@@ -133,12 +133,48 @@ bool OmniTablesFromJson(StrictObject& r, const std::string& file, OmniCalibratio
   return true;
 }
 
+// `self_mask` (optional; absent: none learned): radii, sectors as [angle, half width] pairs, the
+// body outline.
+bool SelfMaskFromJson(StrictObject& r, const std::string& file, OmniSelfMask& m) {
+  const json* jm = r.Child("self_mask", /*required=*/false);
+  if (!jm) return true;
+  StrictObject mr(*jm, file, "omni.self_mask");
+  float body[OmniSelfMask::kOutlineDirections];
+  m.known = true;
+  if (!mr.IsObject() || !mr.Float("inner_radius_px", m.inner_radius_px, 1, 2048) ||
+      !mr.Float("outer_radius_px", m.outer_radius_px, 1, 2048) ||
+      !mr.FloatArray("body_px", body, OmniSelfMask::kOutlineDirections, 0, 255)) {
+    return r.Adopt(mr);
+  }
+  for (int i = 0; i < OmniSelfMask::kOutlineDirections; ++i) {
+    m.body_px[i] = static_cast<uint8_t>(std::lround(body[i]));
+  }
+  const json* sectors = mr.Child("sectors");
+  if (!sectors) return r.Adopt(mr);
+  if (!sectors->is_array() || sectors->size() > OmniSelfMask::kMaxSectors) {
+    return r.Fail("self_mask.sectors", *sectors, "at most 8 [angle_deg, half_width_deg] pairs");
+  }
+  m.sector_count = static_cast<int>(sectors->size());
+  for (int i = 0; i < m.sector_count; ++i) {
+    const std::string key = IndexKey(i);
+    const json wrap{{key, (*sectors)[i]}};
+    StrictObject sr(wrap, file, "omni.self_mask.sectors");
+    float pair[2];
+    if (!sr.FloatArray(key.c_str(), pair, 2, -360, 360)) return r.Adopt(sr);
+    m.sectors[i] = {pair[0], pair[1]};
+  }
+  mr.Allow({"unchanged_fraction", "frames"});
+  const Status valid = ValidateSelfMask(m);
+  if (!valid.ok()) return r.Fail("self_mask", *jm, valid.message());
+  return true;
+}
+
 bool OmniFromJson(const json& j, const std::string& file, OmniCalibration& o,
                   std::vector<std::string>* unknown, std::string& error) {
   o = OmniCalibration{};
   StrictObject r(j, file, "omni");
   const bool ok = r.IsObject() && r.Bool("valid", o.valid) && OmniScalarsFromJson(r, o) &&
-                  OmniTablesFromJson(r, file, o);
+                  OmniTablesFromJson(r, file, o) && SelfMaskFromJson(r, file, o.self_mask);
   r.Allow({"samples", "rim_radius_px", "symmetric_support_px", "rms_ground_rel",
            "symmetric_rms_ground_rel"});
   if (!ok) error = r.error();
@@ -247,6 +283,18 @@ json OmniToJson(const OmniCalibration& o) {
   j["support_px"] = sv;
   j["sector_flags"] =
       std::vector<int>(o.sector_flags, o.sector_flags + OmniCalibration::kDirections);
+  const OmniSelfMask& m = o.self_mask;
+  if (m.known) {
+    json sectors = json::array();
+    for (int i = 0; i < m.sector_count; ++i) {
+      sectors.push_back({m.sectors[i].angle_deg, m.sectors[i].half_width_deg});
+    }
+    j["self_mask"] = {
+        {"inner_radius_px", m.inner_radius_px},
+        {"outer_radius_px", m.outer_radius_px},
+        {"sectors", sectors},
+        {"body_px", std::vector<int>(m.body_px, m.body_px + OmniSelfMask::kOutlineDirections)}};
+  }
   return j;
 }
 

@@ -3,12 +3,14 @@
 // and prints what each found.
 #include "tools/ballvision/calib_omni.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <string>
 #include <vector>
 
 #include "tools/ballvision/calib_io.h"
+#include "tools/ballvision/calib_omni_selfmask.h"
 #include "tools/ballvision/calib_omni_steps.h"
 #include "tools/ballvision/carpet_json.h"
 #include "tools/ballvision/cli_args.h"
@@ -95,6 +97,23 @@ void PrintRefinement(const AngleRefinement& refined, const AngleFit& angle) {
 }
 
 // Centre, viewpoint, image angle and edge distances; the support vectors come from the sectors.
+void PrintSelfMask(const SelfMaskResult& self) {
+  const OmniSelfMask& m = self.mask;
+  int lo = 255, hi = 0;
+  for (uint8_t b : m.body_px) {
+    lo = std::min<int>(lo, b);
+    hi = std::max<int>(hi, b);
+  }
+  std::printf(
+      "self-mask: %.1f %% of the mirror ring never changed; body outline %d-%d px, usable radii "
+      "%.0f-%.0f px, %d sectors:",
+      100.0 * self.unchanged_fraction, lo, hi, m.inner_radius_px, m.outer_radius_px,
+      m.sector_count);
+  for (int i = 0; i < m.sector_count; ++i)
+    std::printf(" %.1f+-%.1f", m.sectors[i].angle_deg, m.sectors[i].half_width_deg);
+  std::printf(" deg\n");
+}
+
 OmniCalibration FittedGeometry(const RimFit& rim, const AngleFit& angle, const EdgeChoice& edges,
                                double f_o) {
   OmniCalibration cal;
@@ -133,6 +152,9 @@ int CalibrateOmni(int argc, char** argv) {
   if (!FindCentre(frames, rim, error)) return Fail(error);
   std::printf("image centre (mirror rim circle): (%.2f, %.2f) px, rim radius %.1f px\n", rim.cu,
               rim.cv, rim.radius);
+  SelfMaskResult self;
+  if (!LearnSelfMask(frames, rim, self, error)) return Fail(error);
+  PrintSelfMask(self);
 
   AngleFit angle;
   if (!FitImageAngle(frames, carpet, a.carpet_path, rim, angle, error)) return Fail(error);
@@ -154,6 +176,7 @@ int CalibrateOmni(int argc, char** argv) {
   }
 
   OmniCalibration cal = FittedGeometry(rim, angle, edges, a.f_o);
+  cal.self_mask = self.mask;
   SectorFit sectors = FitSectors(edges.samples, edges.first, edges.edge_m);
   std::printf("%d support vectors rejected as inconsistent with their neighbours\n",
               RejectInconsistent(sectors));
@@ -180,7 +203,9 @@ int CalibrateOmni(int argc, char** argv) {
     }
     std::printf("report written to %s\n", a.report.c_str());
   }
-  const auto section = OmniSection(cal, edges.samples.size(), rim.radius, sym, res);
+  auto section = OmniSection(cal, edges.samples.size(), rim.radius, sym, res);
+  section["self_mask"]["unchanged_fraction"] = self.unchanged_fraction;
+  section["self_mask"]["frames"] = static_cast<int>(frames.size());
   if (InterruptSignal()) return 1;  // CmdCalibrate reports it; nothing written
   if (!UpdateCalibrationSection(a.out, "omni", section, error)) {
     std::fprintf(stderr, "calibrate omni: %s\n", error.c_str());
