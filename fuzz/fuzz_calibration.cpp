@@ -7,6 +7,8 @@
 
 #include "core/calibration/calibration.h"
 #include "core/common/blob.h"
+#include "core/pipeline.h"
+#include "core/scanline/scanline.h"
 #include "fuzz/blob_input.h"
 
 // Input: fuzz/blob_input.h.
@@ -27,6 +29,11 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         bv::OmniPixelToGround(cal.omni, cal.omni.center_u + 50, cal.omni.center_v, x, y).ok()) {
       if (!std::isfinite(x) || !std::isfinite(y)) __builtin_trap();
       (void)bv::OmniGroundToPixel(cal.omni, x, y, u, v).ok();
+    }
+    // A learned self-mask sets the scan geometry: any accepted one builds a table or says why.
+    if (cal.omni.valid && cal.omni.self_mask.known) {
+      static bv::ScanlineTable<bv::kOmniScanPixels> table;
+      (void)table.BuildOmni(bv::PipelineOmniScan(cal.omni, bv::PipelineConfig{}), 640, 480).ok();
     }
   }
   return 0;
