@@ -1,5 +1,6 @@
 #include "tools/ballvision/annotate_frontend.h"
 
+#include <cmath>
 #include <vector>
 
 #include <opencv2/imgproc.hpp>
@@ -23,6 +24,30 @@ cv::Vec3b ClassColor(ColorClass c) {  // BGR
     default:
       return {120, 120, 120};
   }
+}
+
+void DrawSelfMask(cv::Mat& out, const FieldOverlay& field, int scale) {
+  const OmniSelfMask& m = *field.self_mask;
+  const cv::Scalar orange(0, 140, 255);
+  const auto at = [&](double deg, double r) {
+    const double a = deg * M_PI / 180.0;
+    return cv::Point(static_cast<int>((field.center_u + 0.5 + r * std::cos(a)) * scale),
+                     static_cast<int>((field.center_v + 0.5 + r * std::sin(a)) * scale));
+  };
+  const cv::Point c = at(0, 0);
+  cv::circle(out, c, static_cast<int>(m.inner_radius_px * scale), orange, 1);
+  cv::circle(out, c, static_cast<int>(m.outer_radius_px * scale), orange, 1);
+  for (int i = 0; i < m.sector_count; ++i) {
+    for (float side : {-1.0f, 1.0f}) {
+      const double deg = m.sectors[i].angle_deg + side * m.sectors[i].half_width_deg;
+      cv::line(out, at(deg, m.inner_radius_px), at(deg, m.outer_radius_px), orange, 1);
+    }
+  }
+  std::vector<cv::Point> body;
+  for (int i = 0; i < OmniSelfMask::kOutlineDirections; ++i) {
+    body.push_back(at((i + 0.5) * 360.0 / OmniSelfMask::kOutlineDirections, m.body_px[i]));
+  }
+  cv::polylines(out, body, true, orange, 1);
 }
 
 }  // namespace
@@ -79,6 +104,9 @@ bool AnnotateFrontEnd(const YuyvImage& image, const ColorLut& lut, const Scanlin
                static_cast<int>(prediction->sigma_px * scale), cv::Scalar(255, 0, 0), 1);
     cv::drawMarker(out, pt(prediction->u_px, prediction->v_px), cv::Scalar(255, 0, 0),
                    cv::MARKER_TILTED_CROSS, 6 * scale, 1);
+  }
+  if (field != nullptr && field->self_mask != nullptr && field->self_mask->known) {
+    DrawSelfMask(out, *field, scale);
   }
   if (field != nullptr) {
     for (const auto& p : field->model) cv::circle(out, pt(p.u, p.v), 0, cv::Scalar(0, 200, 0), 1);

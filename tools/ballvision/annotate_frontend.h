@@ -6,6 +6,7 @@
 #include <utility>
 #include <vector>
 
+#include "core/calibration/calibration.h"
 #include "core/color_lut/color_lut.h"
 #include "core/common/ball_state.h"
 #include "core/common/image.h"
@@ -22,6 +23,9 @@ struct FieldOverlay {
   std::vector<Px> line_points;                  // observed line points (yellow)
   std::vector<std::pair<Px, float>> obstacles;  // footprint centre and radius in px (red)
   std::vector<Px> model;  // the field's lines seen through the estimated pose (green)
+  // The robot itself as the calibration knows it (orange): usable radii, masked sectors, body.
+  const OmniSelfMask* self_mask = nullptr;
+  float center_u = 0, center_v = 0;
   std::string caption;
 };
 

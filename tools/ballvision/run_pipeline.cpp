@@ -81,12 +81,16 @@ FieldOverlay MakeFieldOverlay(const Pipeline& pipeline, const OmniCalibration& c
       o.obstacles.push_back({{u, v}, std::hypot(u2 - u, v2 - v)});
     }
   }
+  o.self_mask = &cal.self_mask;
+  o.center_u = cal.center_u;
+  o.center_v = cal.center_v;
   const PoseEstimate& p = pipeline.localisation();
-  char text[128];
+  char text[160];
   std::snprintf(text, sizeof text,
-                "pose %s (%.2f, %.2f, %.1f deg) q %.2f%s, %d lines, %d obstacles",
+                "pose %s (%.2f, %.2f, %.1f deg) q %.2f%s, %d lines, %d obstacles%s",
                 p.usable() ? "" : "unknown", p.x_m, p.y_m, p.heading_rad * 57.2958f, p.quality,
-                p.ambiguous ? " ambiguous" : "", f.line_count, f.obstacle_count);
+                p.ambiguous ? " ambiguous" : "", f.line_count, f.obstacle_count,
+                cal.self_mask.known ? "" : ", no self-mask (reference rig)");
   o.caption = text;
   if (!p.usable()) return o;
   constexpr int kModelPoints = 4096;
