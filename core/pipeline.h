@@ -164,7 +164,7 @@ void OmniRaySigma(const OmniCalibration& cal, const BallDetection& det, const Ra
 /// with something beside it. A region smaller by less than `small_rel` is a ball in full view.
 float SizeMisfitPx(const ImagePrediction& pred, float radius_px, float small_rel);
 
-/// The tables Init builds for a calibration (93 KB on the device): written only by Init and read
+/// The tables Init builds for a calibration (105 KB on the device): written only by Init and read
 /// in order every frame, so the firmware keeps them in external RAM (firmware/main_loop.h).
 struct PipelineTables {
   ScanlineTable<kOmniScanPixels> omni;

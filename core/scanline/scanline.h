@@ -263,7 +263,7 @@ class ScanlineTable : public ScanlineTableBase {
   uint16_t storage_[(kMaxPixels + 1) / 2];
 };
 
-inline constexpr size_t kOmniScanPixels = 20000;   // 20 KB (+ 4 KB row index)
+inline constexpr size_t kOmniScanPixels = 32000;   // 32 KB (+ 4 KB row index), in external RAM
 inline constexpr size_t kPerspScanPixels = 16384;  // 16 KB (+ 4 KB row index)
 // Earlier names of the two capacities (core/pipeline.h uses them).
 inline constexpr size_t kOmniScanSegments = kOmniScanPixels;
