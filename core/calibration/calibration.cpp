@@ -316,14 +316,14 @@ Status OmniProject(const OmniCalibration& cal, const Eigen::Vector3f& p_robot, f
 }
 
 Status ValidateSelfMask(const OmniSelfMask& m) {
-  const bool finite_radii = std::isfinite(m.inner_radius_px) && std::isfinite(m.outer_radius_px);
   if (!m.known) {
     bool zero = m.sector_count == 0 && m.inner_radius_px == 0.0f && m.outer_radius_px == 0.0f;
     for (uint8_t b : m.body_px) zero = zero && b == 0;
     return zero ? Status()
                 : Status(StatusCode::kInvalidArgument, "self-mask: unknown, yet not empty");
   }
-  if (!finite_radii || !(m.inner_radius_px >= 1.0f) || !(m.outer_radius_px <= 2048.0f) ||
+  if (!std::isfinite(m.inner_radius_px) || !std::isfinite(m.outer_radius_px) ||
+      !(m.inner_radius_px >= 1.0f) || !(m.outer_radius_px <= 2048.0f) ||
       !(m.outer_radius_px > m.inner_radius_px + 8.0f)) {
     return Status(StatusCode::kInvalidArgument,
                   "self-mask: radii out of range (need 1 <= inner < outer - 8 <= 2040 px)");

@@ -135,7 +135,7 @@ void ScanlineTableBase::Reset(int width, int height) {
   lead_rows_ = 0;
 }
 
-void ScanlineTableBase::SetLeads() {
+void ScanlineTableBase::SetPrefetchLead() {
   int first = -1, last = -1, rows = 0;
   for (int v = 0; v < height_; ++v) {
     if (row_start_[v] == row_start_[v + 1]) continue;
@@ -437,7 +437,7 @@ Status ScanlineTableBase::BuildOmni(const OmniScanConfig& c, int width, int heig
       return st;
     }
   }
-  SetLeads();
+  SetPrefetchLead();
   return Status::Ok();
 }
 
@@ -500,7 +500,7 @@ Status ScanlineTableBase::BuildPersp(const PerspScanConfig& c, int width, int he
       return st;
     }
   }
-  SetLeads();
+  SetPrefetchLead();
   return Status::Ok();
 }
 

@@ -225,7 +225,7 @@ class ScanlineTableBase {
   // The build's buffer for one row's sample columns: the table's unwritten tail.
   uint16_t* RowBuffer(int& room) const;
   // lead_rows_ from the finished table.
-  void SetLeads();
+  void SetPrefetchLead();
   // Moves row v's m sorted, unique columns (in RowBuffer()) to the end of the tail, where the row's
   // own entries cannot reach them, and appends them; kResourceExhausted when the table is full.
   Status AppendBufferedRow(int v, int m);

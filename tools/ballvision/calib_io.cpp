@@ -1,5 +1,6 @@
 #include "tools/ballvision/calib_io.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -261,6 +262,23 @@ json PerspToJson(const PerspCalibration& p) {
   j["R_robot_cam"] = r;
   j["t_robot_cam"] = {p.t_robot_cam.x(), p.t_robot_cam.y(), p.t_robot_cam.z()};
   return j;
+}
+
+std::string SelfMaskSummary(const OmniSelfMask& m) {
+  if (!m.known) return "none learned (the reference rig's body, rim and struts stand in)";
+  const auto [lo, hi] =
+      std::minmax_element(m.body_px, m.body_px + OmniSelfMask::kOutlineDirections);
+  char buf[96];
+  std::snprintf(buf, sizeof buf,
+                "usable radii %.1f-%.1f px, body outline %d-%d px, %d sectors:", m.inner_radius_px,
+                m.outer_radius_px, *lo, *hi, m.sector_count);
+  std::string text = buf;
+  for (int i = 0; i < m.sector_count; ++i) {
+    std::snprintf(buf, sizeof buf, " %.1f+-%.1f", m.sectors[i].angle_deg,
+                  m.sectors[i].half_width_deg);
+    text += buf;
+  }
+  return text + " deg";
 }
 
 json OmniToJson(const OmniCalibration& o) {

@@ -35,6 +35,9 @@ bool CalibrationFromJson(const nlohmann::json& j, bv::RigCalibration& out, std::
                          const std::string& file = "", std::vector<std::string>* unknown = nullptr);
 nlohmann::json PerspToJson(const bv::PerspCalibration& p);
 nlohmann::json OmniToJson(const bv::OmniCalibration& o);
+/// One line on the self-mask for people (`calib show`, `calibrate omni`): radii, body outline,
+/// sectors, or that none was learned.
+std::string SelfMaskSummary(const bv::OmniSelfMask& m);
 nlohmann::json FieldToJson(const bv::FieldConfig& f);
 
 /// Serialises to a device blob (validated).

@@ -3,7 +3,6 @@
 // and prints what each found.
 #include "tools/ballvision/calib_omni.h"
 
-#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <string>
@@ -97,23 +96,6 @@ void PrintRefinement(const AngleRefinement& refined, const AngleFit& angle) {
 }
 
 // Centre, viewpoint, image angle and edge distances; the support vectors come from the sectors.
-void PrintSelfMask(const SelfMaskResult& self) {
-  const OmniSelfMask& m = self.mask;
-  int lo = 255, hi = 0;
-  for (uint8_t b : m.body_px) {
-    lo = std::min<int>(lo, b);
-    hi = std::max<int>(hi, b);
-  }
-  std::printf(
-      "self-mask: %.1f %% of the mirror ring never changed; body outline %d-%d px, usable radii "
-      "%.0f-%.0f px, %d sectors:",
-      100.0 * self.unchanged_fraction, lo, hi, m.inner_radius_px, m.outer_radius_px,
-      m.sector_count);
-  for (int i = 0; i < m.sector_count; ++i)
-    std::printf(" %.1f+-%.1f", m.sectors[i].angle_deg, m.sectors[i].half_width_deg);
-  std::printf(" deg\n");
-}
-
 OmniCalibration FittedGeometry(const RimFit& rim, const AngleFit& angle, const EdgeChoice& edges,
                                double f_o) {
   OmniCalibration cal;
@@ -154,7 +136,8 @@ int CalibrateOmni(int argc, char** argv) {
               rim.cv, rim.radius);
   SelfMaskResult self;
   if (!LearnSelfMask(frames, rim, self, error)) return Fail(error);
-  PrintSelfMask(self);
+  std::printf("self-mask: %.1f %% of the mirror ring never changed; %s\n",
+              100.0 * self.unchanged_fraction, SelfMaskSummary(self.mask).c_str());
 
   AngleFit angle;
   if (!FitImageAngle(frames, carpet, a.carpet_path, rim, angle, error)) return Fail(error);

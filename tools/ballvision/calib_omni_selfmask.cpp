@@ -122,7 +122,6 @@ bool Sectors(const cv::Mat1b& self, const RimFit& rim, OmniSelfMask& m, std::str
     return false;
   }
   m.sector_count = 0;
-  double total_deg = 0;
   for (int k = 1; k <= kSectorBins; ++k) {
     const int b = (start + k) % kSectorBins;
     if (!masked[b]) continue;
@@ -136,16 +135,8 @@ bool Sectors(const cv::Mat1b& self, const RimFit& rim, OmniSelfMask& m, std::str
     }
     const double centre = std::fmod((b + 0.5 * len) * 360.0 / kSectorBins, 360.0);
     m.sectors[m.sector_count++] = {static_cast<float>(centre), static_cast<float>(half)};
-    total_deg += 2 * half;
   }
-  if (total_deg > OmniSelfMask::kMaxMaskedDeg) {
-    char buf[160];
-    std::snprintf(buf, sizeof buf, "self-mask: sectors cover %.0f deg of the image (at most 120)",
-                  total_deg);
-    error = buf;
-    return false;
-  }
-  return true;
+  return true;  // their total is ValidateSelfMask's
 }
 
 }  // namespace

@@ -23,23 +23,6 @@ constexpr char kUsage[] =
     "  u,v,ok,ox,oy,oz,dx,dy,dz (robot frame; the omni ray as the pipeline uses it,\n"
     "  beyond the distance map included; ok 0 = no ray, the rest empty)\n";
 
-void PrintSelfMask(const OmniSelfMask& m) {
-  if (!m.known) {
-    std::printf("  self-mask: none learned (the reference rig's body, rim and struts stand in)\n");
-    return;
-  }
-  int lo = 255, hi = 0;
-  for (uint8_t b : m.body_px) {
-    lo = std::min<int>(lo, b);
-    hi = std::max<int>(hi, b);
-  }
-  std::printf("  self-mask: usable radii %.1f-%.1f px, body outline %d-%d px, %d sectors:",
-              m.inner_radius_px, m.outer_radius_px, lo, hi, m.sector_count);
-  for (int i = 0; i < m.sector_count; ++i)
-    std::printf(" %.1f+-%.1f", m.sectors[i].angle_deg, m.sectors[i].half_width_deg);
-  std::printf(" deg\n");
-}
-
 void Show(const RigCalibration& c) {
   std::printf("calibration_id 0x%08x  lut_id 0x%08x  ball_radius_m %.4f\n", c.calibration_id,
               c.lut_id, c.ball_radius_m);
@@ -77,7 +60,7 @@ void Show(const RigCalibration& c) {
       std::printf(" %.1f-%.1f", lo, hi);
     }
     std::printf("\n");
-    PrintSelfMask(o.self_mask);
+    std::printf("  self-mask: %s\n", SelfMaskSummary(o.self_mask).c_str());
   } else {
     std::printf("omni: not calibrated\n");
   }
