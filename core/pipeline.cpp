@@ -453,11 +453,14 @@ Status Pipeline::Init(const RigCalibration& calibration, const ColorLut& lut,
   config_.filter.ball_radius_m = calibration.ball_radius_m;
   config_.finder.ball_box = lut.Bounds(ColorClass::kBall);
   features_ready_ = false;
+  omni_watch_.Clear();  // a camera without calibration is not watched
+  persp_watch_.Clear();
   BV_TRY(field_model_.Init(calibration.field));
   if (calibration.omni.valid) {
     const OmniScanConfig scan = PipelineOmniScan(calibration.omni, config_);
     omni_outer_radius_px_ = scan.outer_radius_px;
     BV_TRY(tables_.omni.BuildOmni(scan, kFrameWidth, kFrameHeight));
+    BV_TRY(omni_watch_.Build(tables_.omni, config_.watch));
     if (config_.field_features) {
       FieldFeatureConfig fc = config_.features;
       fc.line_width_m = calibration.field.line_width_m;
@@ -477,6 +480,7 @@ Status Pipeline::Init(const RigCalibration& calibration, const ColorLut& lut,
   if (calibration.persp.valid) {
     BV_TRY(tables_.persp.BuildPersp(ReferencePerspScanConfig(), calibration.persp.width_px,
                                     calibration.persp.height_px));
+    BV_TRY(persp_watch_.Build(tables_.persp, config_.watch));
     BallFinderConfig finder = config_.finder;
     finder.fit_circles = config_.persp_circles;
     finder.check = nullptr;
@@ -644,9 +648,9 @@ bool Pipeline::PerspLooked(const BallDetection& persp) const {
          persp.v_px < static_cast<float>(cal.persp.height_px);
 }
 
-Status Pipeline::Process(const FrameInput& in, BallState& out) {
+Status Pipeline::Process(const FrameInput& delivered, BallState& out) {
   out = BallState{};
-  out.t_us = in.t_us;
+  out.t_us = delivered.t_us;
   stats_.pixels_read = stats_.regions_traced = stats_.overflows = 0;
   stats_.frame_errors = 0;
   if (!initialised_) return Status(StatusCode::kFailedPrecondition, "pipeline: Init() not called");
@@ -655,6 +659,13 @@ Status Pipeline::Process(const FrameInput& in, BallState& out) {
     for (uint32_t& t : stats_.stage_ticks) t = 0;
     stage_mark_ = stage_clock_();
   }
+  // 0. A repeated, blind or missing frame is not used; one that lasts flags its camera.
+  used_ = delivered;  // a member, not a stack copy: the device's stack budget is tight
+  if (!omni_watch_.Observe(used_.omni, used_.omni_t_us)) used_.omni = YuyvImage{};
+  if (!persp_watch_.Observe(used_.persp, used_.persp_t_us)) used_.persp = YuyvImage{};
+  const FrameInput& in = used_;
+  out.omni_check = omni_watch_.check();
+  out.persp_check = persp_watch_.check();
 
   // 1. Prediction for this exposure -> image positions (attention, ball choice).
   Predict(in.t_us);

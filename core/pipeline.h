@@ -17,6 +17,7 @@
 #include "core/field/features.h"
 #include "core/field/field_model.h"
 #include "core/field/localise.h"
+#include "core/health/camera_watch.h"
 #include "core/scanline/scanline.h"
 #include "core/triangulation/triangulation.h"
 
@@ -87,12 +88,16 @@ struct PipelineConfig {
   FieldFeatureConfig features;
   LocaliserConfig localiser;
   CandidateTracksConfig candidates;  // the other ball candidates, tracked beside the filter
+  CameraWatchConfig watch;           // frozen, blind and missing cameras (core/health)
 };
 
 struct FrameInput {
   YuyvImage omni;  // !valid() when that camera delivered no frame
   YuyvImage persp;
   uint64_t t_us = 0;  // exposure time of the pair
+  // Each camera's own exposure time, when the source knows it (0: unknown): one that stands
+  // still is a frozen camera even when its pixels change (core/health).
+  uint64_t omni_t_us = 0, persp_t_us = 0;
 };
 
 /// Stages of Pipeline::Process(), in its order; timed when a stage clock is set.
@@ -198,6 +203,8 @@ class Pipeline {
     filter_.Reset();
     candidates_.Reset();
     handover_ = Handover{};
+    omni_watch_.Reset();
+    persp_watch_.Reset();
   }
   /// Online colour adaptation (core/color_lut/color_adapt.h), fed with the detections both
   /// cameras confirm; null turns it off. The adapter must outlive the pipeline's use of it.
@@ -284,6 +291,8 @@ class Pipeline {
   BallGeometry persp_geometry_;
   BallCheck persp_check_;
   BallFilter filter_;
+  CameraWatch omni_watch_, persp_watch_;
+  FrameInput used_;  // this pair's frames as Process() uses them (refused ones left out)
   ImagePrediction pred_omni_, pred_persp_;
   MeasurementInfo meas_;
   float omni_outer_radius_px_ = 1e9f;  // mirror rim in the image (scan table geometry)

@@ -849,6 +849,8 @@ bool MainLoop::Poll() {
   in.omni = ToImage(pair.omni);
   in.persp = ToImage(pair.persp);
   in.t_us = pair.exposure_us;
+  if (pair.omni.present) in.omni_t_us = pair.omni.exposure_us;
+  if (pair.persp.present) in.persp_t_us = pair.persp.exposure_us;
 
   if (teach_.active) RunTeach(in);
   BallState state;
@@ -861,6 +863,10 @@ bool MainLoop::Poll() {
     state = BallState{};
     state.t_us = pair.exposure_us;
   }
+  status_.check_omni = state.omni_check.Byte();
+  status_.check_persp = state.persp_check.Byte();
+  if (state.omni_check.state == CameraState::kUnusable) ++status_.pairs_omni_unusable;
+  if (state.persp_check.state == CameraState::kUnusable) ++status_.pairs_persp_unusable;
   const uint64_t proc_us = clock_.NowUs() - start_us;
   state.proc_us = static_cast<uint32_t>(proc_us > UINT32_MAX ? UINT32_MAX : proc_us);
 

@@ -46,6 +46,33 @@ enum BallFlags : uint16_t {
   kFlagPredictionUncertain = 1u << 14,
 };
 
+/// How far a camera's data can be trusted (issue 40's states.csv codes and packet byte).
+enum class CameraState : uint8_t {
+  kAsCalibrated = 0,
+  kCorrected = 1,  // changed, and the pipeline uses a corrected model
+  kChanged = 2,    // changed, not corrected: down-weighted
+  kUnusable = 3,   // frozen, blind, missing or beyond correction: its data is not used
+};
+const char* CameraStateName(CameraState state);
+
+/// Why a camera's frames were refused (bit set; core/health).
+enum CameraFault : uint8_t {
+  kCameraRepeated = 1u << 0,   // the same frame again
+  kCameraStaleTime = 1u << 1,  // its own exposure time did not advance
+  kCameraDark = 1u << 2,       // the scan table's pixels mostly black
+  kCameraSaturated = 1u << 3,  // mostly saturated
+  kCameraFlat = 1u << 4,       // one flat grey (a covered lens, a test pattern, a zeroed buffer)
+  kCameraMissing = 1u << 5,    // no frame delivered
+};
+inline constexpr uint8_t kCameraFaultBits = 6;
+
+struct CameraCheck {
+  CameraState state = CameraState::kAsCalibrated;
+  uint8_t faults = 0;  // CameraFault: this frame's, also before they last long enough to flag
+  // Packet byte: state in bits 0-1, faults in bits 2-7.
+  uint8_t Byte() const { return static_cast<uint8_t>(static_cast<uint8_t>(state) | faults << 2); }
+};
+
 struct BallState {
   uint64_t t_us = 0;   // exposure time of the frame pair
   bool found = false;  // position valid (measured or coasting within bounds)
@@ -63,6 +90,7 @@ struct BallState {
   float px_m = 0, py_m = 0, pz_m = 0;
   float psigma_x_m = 0, psigma_y_m = 0, psigma_z_m = 0;  // 1-sigma of px/py/pz
   uint32_t proc_us = 0;                                  // pipeline time for this pair
+  CameraCheck omni_check, persp_check;  // kUnusable: that camera's frame was not used
 };
 
 }  // namespace bv

@@ -14,12 +14,13 @@ constexpr char kSchema[] =
     "ball:t_us u64,flags u16,mode u8,found u8,x y z f32,vx vy vz f32,ray_gap f32,"
     "omni_u omni_v f32,persp_u persp_v f32,t_bounce_us u64,bounce_x bounce_y f32,"
     "predict_ahead_us u32,px py pz f32,proc_us u32,sigma_x sigma_y sigma_z u16,"
-    "psigma_x psigma_y psigma_z u16;"
+    "psigma_x psigma_y psigma_z u16,omni_check persp_check u8;"
     "status:uptime_us u64,frames_processed frame_rate_mhz frames_dropped deadline_overruns "
     "packets_dropped pairs_omni_missing pairs_persp_missing pairs_out_of_sync pairs_out_of_order "
-    "pairs_torn calibration_id lut_id u32,calibration_state lut_state u8,reserved u16,"
+    "pairs_torn calibration_id lut_id u32,calibration_state lut_state u8,check_omni check_persp u8,"
     "rx_errors command_errors pipeline_errors last_proc_us max_proc_us fault_flags u32,"
-    "rx_overruns rx_ring_full rx_line_errors u32,feature_packets_dropped line_points_unsent u32;"
+    "rx_overruns rx_ring_full rx_line_errors u32,feature_packets_dropped line_points_unsent u32,"
+    "pairs_omni_unusable pairs_persp_unusable u32;"
     "pose:t_us u64,state u8,flags u8,points_used inliers u16,x y heading f32,"
     "sigma_x sigma_y sigma_heading f32,quality f32;"
     "lines:t_us u64,found u16,count u8,reserved u8,count*(x_mm y_mm i16);"
@@ -149,6 +150,8 @@ Result<size_t> EncodeBallState(const BallState& s, uint32_t seq, std::span<uint8
   w.U32(s.proc_us);
   for (const float sigma : {s.sigma_x_m, s.sigma_y_m, s.sigma_z_m}) w.U16(BallSigmaMm(sigma));
   for (const float sigma : {s.psigma_x_m, s.psigma_y_m, s.psigma_z_m}) w.U16(BallSigmaMm(sigma));
+  w.U8(s.omni_check.Byte());
+  w.U8(s.persp_check.Byte());
   static_assert(sizeof(p) == kBallStatePayloadBytes);
   if (w.size() != kBallStatePayloadBytes) return Status(StatusCode::kInternal, "ball payload size");
   return EncodeFrame(MsgType::kBallState, seq, w.written(), out);
@@ -176,6 +179,11 @@ Status ParseBallState(std::span<const uint8_t> payload, BallState& out) {
   s.proc_us = r.U32();
   s.sigma_x_m = r.U16() * 1e-3f, s.sigma_y_m = r.U16() * 1e-3f, s.sigma_z_m = r.U16() * 1e-3f;
   s.psigma_x_m = r.U16() * 1e-3f, s.psigma_y_m = r.U16() * 1e-3f, s.psigma_z_m = r.U16() * 1e-3f;
+  for (CameraCheck* c : {&s.omni_check, &s.persp_check}) {
+    const uint8_t b = r.U8();
+    c->state = static_cast<CameraState>(b & 3u);
+    c->faults = static_cast<uint8_t>(b >> 2);  // six bits: every value is a valid set
+  }
   if (mode > static_cast<uint8_t>(BallMode::kBouncing)) {
     return Status(StatusCode::kInvalidArgument, "ball state: unknown mode");
   }
@@ -204,10 +212,12 @@ Result<size_t> EncodeStatus(const StatusReport& s, uint32_t seq, std::span<uint8
   }
   w.U8(s.calibration_state);
   w.U8(s.lut_state);
-  w.U16(s.reserved);
-  for (uint32_t v : {s.rx_errors, s.command_errors, s.pipeline_errors, s.last_proc_us,
-                     s.max_proc_us, s.fault_flags, s.rx_overruns, s.rx_ring_full, s.rx_line_errors,
-                     s.feature_packets_dropped, s.line_points_unsent}) {
+  w.U8(s.check_omni);
+  w.U8(s.check_persp);
+  for (uint32_t v :
+       {s.rx_errors, s.command_errors, s.pipeline_errors, s.last_proc_us, s.max_proc_us,
+        s.fault_flags, s.rx_overruns, s.rx_ring_full, s.rx_line_errors, s.feature_packets_dropped,
+        s.line_points_unsent, s.pairs_omni_unusable, s.pairs_persp_unusable}) {
     w.U32(v);
   }
   if (w.size() != kStatusPayloadBytes) return Status(StatusCode::kInternal, "status payload size");
@@ -228,13 +238,15 @@ Status ParseStatus(std::span<const uint8_t> payload, StatusReport& out) {
   for (uint32_t* f : fields) *f = r.U32();
   s.calibration_state = r.U8();
   s.lut_state = r.U8();
-  s.reserved = r.U16();
-  uint32_t* tail[] = {&s.rx_errors,         &s.command_errors,
-                      &s.pipeline_errors,   &s.last_proc_us,
-                      &s.max_proc_us,       &s.fault_flags,
-                      &s.rx_overruns,       &s.rx_ring_full,
-                      &s.rx_line_errors,    &s.feature_packets_dropped,
-                      &s.line_points_unsent};
+  s.check_omni = r.U8();
+  s.check_persp = r.U8();
+  uint32_t* tail[] = {&s.rx_errors,           &s.command_errors,
+                      &s.pipeline_errors,     &s.last_proc_us,
+                      &s.max_proc_us,         &s.fault_flags,
+                      &s.rx_overruns,         &s.rx_ring_full,
+                      &s.rx_line_errors,      &s.feature_packets_dropped,
+                      &s.line_points_unsent,  &s.pairs_omni_unusable,
+                      &s.pairs_persp_unusable};
   for (uint32_t* f : tail) *f = r.U32();
   if (s.calibration_state > 2 || s.lut_state > 4) {
     return Status(StatusCode::kInvalidArgument, "status: unknown blob state");

@@ -15,7 +15,8 @@
 
 namespace bv::protocol {
 
-inline constexpr uint8_t kVersion = 3;  // 2: the ball state's sigma; 3: its prediction's
+// 2: the ball state's sigma; 3: its prediction's; 4: the cameras' checks (core/health)
+inline constexpr uint8_t kVersion = 4;
 inline constexpr size_t kHeaderBytes = 10;
 inline constexpr size_t kCrcBytes = 4;
 inline constexpr size_t kMaxPayloadBytes = 1024;
@@ -61,8 +62,8 @@ enum class MsgType : uint8_t {
 /// listener built from another revision refuses the stream instead of misreading it.
 uint16_t SchemaHash();
 
-inline constexpr size_t kBallStatePayloadBytes = 104;
-inline constexpr size_t kStatusPayloadBytes = 104;
+inline constexpr size_t kBallStatePayloadBytes = 106;
+inline constexpr size_t kStatusPayloadBytes = 112;
 inline constexpr size_t kPosePayloadBytes = 42;
 // Line points per packet: the 35-51 a frame typically has fit whole; beyond, an evenly spread
 // subset is sent (docs/protocol.md has the link budget).
@@ -93,7 +94,8 @@ struct StatusReport {
   uint32_t lut_id = 0;
   uint8_t calibration_state = 0;  // BlobState
   uint8_t lut_state = 0;          // BlobState
-  uint16_t reserved = 0;
+  uint8_t check_omni = 0;         // CameraCheck::Byte() of the last pair (core/health)
+  uint8_t check_persp = 0;
   uint32_t rx_errors = 0;       // corrupt frames received from the main computer
   uint32_t command_errors = 0;  // well-formed but refused commands
   uint32_t pipeline_errors = 0;
@@ -108,6 +110,9 @@ struct StatusReport {
   // (the ball state keeps priority), and line points found but not sent (decimation, capacity).
   uint32_t feature_packets_dropped = 0;
   uint32_t line_points_unsent = 0;
+  // Pairs whose camera was kUnusable (frozen, blind, missing: not used), since start.
+  uint32_t pairs_omni_unusable = 0;
+  uint32_t pairs_persp_unusable = 0;
 };
 
 /// Decoded pose packet (the localiser's PoseEstimate at the pair's exposure time).

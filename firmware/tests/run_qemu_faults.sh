@@ -2,10 +2,11 @@
 # Fault injection in the firmware loop (issue 7): one fault per run, the loop must survive it
 # (QEMU exits 0 at the end of the sequence), keep its deadline and report the fault.
 #   run_qemu_faults.sh QEMU ELF BALLVISION SRC_SEQ WORK_DIR KIND [CALIB_JSON LUT_BLOB]
-# KIND: torn | drop | swap | jump | stopcam | uartstuck | hang. torn, drop, uartstuck and hang
+# KIND: torn | drop | swap | jump | stopcam | frozencam | uartstuck | hang. torn, drop, uartstuck and hang
 # (the loop stops iterating: the board's watchdog must end the run with exit 103) are injected
 # by the board (inject=, firmware/boards/qemu_mps2/board.cpp); swap, jump and stopcam are written into the
-# test's frames.csv, which is exactly what the camera layer would see. With CALIB_JSON and
+# test's frames.csv, which is exactly what the camera layer would see; frozencam (the omni
+# camera serves one frame again and again) too. With CALIB_JSON and
 # LUT_BLOB the full pipeline runs on the faulty frames (else the loop runs "not ready").
 # Exit 0 pass, 1 fail, 77 skip (shared data absent).
 set -u
@@ -19,7 +20,7 @@ count=10 inject=""
 case $kind in
   torn) inject=torn@3 ;;
   drop) inject=drop@3 ;;
-  swap | jump | stopcam) ;;
+  swap | jump | stopcam | frozencam) ;;
   uartstuck) count=40 inject=uartstuck@2 ;;
   hang) inject=hang@3 ;;  # enough packets to fill the 2 KB TX ring
   *) fail "unknown kind" ;;
@@ -39,6 +40,8 @@ case $kind in
     awk -F, -v OFS=, 'NR >= 7 { $2 += 2000000 } { print }' "$csv" > "$csv.new" ;;
   stopcam)  # the perspective camera delivers nothing from row 4 on
     awk -F, -v OFS=, 'NR >= 6 { $4 = "" } { print }' "$csv" > "$csv.new" ;;
+  frozencam)  # the omni camera serves row 3's frame from row 3 on
+    awk -F, -v OFS=, 'NR == 5 { f = $3 } NR > 5 { $3 = f } { print }' "$csv" > "$csv.new" ;;
 esac
 [ -f "$csv.new" ] && mv "$csv.new" "$csv"
 
@@ -118,6 +121,14 @@ case $kind in
   stopcam)
     expect frames_processed $count; expect pairs_persp_missing $((count - 4)); expect pairs_omni_missing 0
     diff <(rows_t) <(states_t) > /dev/null || fail "ball-state t_us differ from the frames'" ;;
+  frozencam)
+    # Rows 4-6 repeat row 3 (refused); the third repeat flags the camera unusable (state 3,
+    # fault bit 0 repeated): rows 6-9. The persp camera is untouched.
+    expect frames_processed $count; expect check_omni 3; expect omni_faults 1
+    expect pairs_omni_unusable $((count - 6)); expect check_persp 0; expect pairs_persp_unusable 0
+    sc() { tail -n +2 "$work/states.csv" | cut -d, -f"$(head -1 "$work/states.csv" | tr , '\n' | grep -nx "$1" | cut -d: -f1)" | tr '\n' ' '; }
+    [ "$(sc check_omni)" = "0 0 0 0 0 0 3 3 3 3 " ] || fail "states.csv check_omni: $(sc check_omni)"
+    echo "ok: states.csv check_omni $(sc check_omni)" ;;
   uartstuck)
     # Nothing after pair 2 reaches the wire: the stream stops mid-run, the loop does not block.
     refused=$(board uart_writes_refused)

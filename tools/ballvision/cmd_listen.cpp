@@ -104,7 +104,8 @@ struct StateStreams {
                     "pairs_out_of_order,pairs_torn,calibration_id,lut_id,calibration_state,"
                     "lut_state,rx_errors,command_errors,pipeline_errors,last_proc_us,max_proc_us,"
                     "fault_flags,rx_overruns,rx_ring_full,rx_line_errors,feature_packets_dropped,"
-                    "line_points_unsent\n";
+                    "line_points_unsent,check_omni,check_persp,omni_faults,persp_faults,"
+                    "pairs_omni_unusable,pairs_persp_unusable\n";
     }
   }
 
@@ -141,18 +142,24 @@ struct StateStreams {
                  << ',' << st.pipeline_errors << ',' << st.last_proc_us << ',' << st.max_proc_us
                  << ',' << st.fault_flags << ',' << st.rx_overruns << ',' << st.rx_ring_full << ','
                  << st.rx_line_errors << ',' << st.feature_packets_dropped << ','
-                 << st.line_points_unsent << '\n';
+                 << st.line_points_unsent << ',' << (st.check_omni & 3) << ','
+                 << (st.check_persp & 3) << ',' << (st.check_omni >> 2) << ','
+                 << (st.check_persp >> 2) << ',' << st.pairs_omni_unusable << ','
+                 << st.pairs_persp_unusable << '\n';
     }
     if (!quiet) {
       std::printf(
           "status seq %5u up %8.3f s  frames %6u  %.1f Hz  dropped %u  overruns %u  "
           "pkts dropped %u  calib %s lut %s  proc %u us (max %u)  rx lost: overrun "
-          "%u ring-full %u line %u\n",
+          "%u ring-full %u line %u\n"
+          "       cameras: omni %s, persp %s  (unusable pairs %u / %u)\n",
           f.seq, st.uptime_us * 1e-6, st.frames_processed, st.frame_rate_mhz / 1000.0,
           st.frames_dropped, st.deadline_overruns, st.packets_dropped,
           st.calibration_state == 0 ? "ok" : "MISSING/CORRUPT",
           st.lut_state == 0 ? "ok" : "MISSING/CORRUPT", st.last_proc_us, st.max_proc_us,
-          st.rx_overruns, st.rx_ring_full, st.rx_line_errors);
+          st.rx_overruns, st.rx_ring_full, st.rx_line_errors,
+          CameraCheckText(st.check_omni).c_str(), CameraCheckText(st.check_persp).c_str(),
+          st.pairs_omni_unusable, st.pairs_persp_unusable);
     }
     return true;
   }

@@ -220,6 +220,20 @@ int CmdRun(int argc, char** argv) {
   }
   std::fprintf(stderr, "%zu frames, ball found in %d, triangulated in %d%s%s\n", recs.size(), found,
                tri, a.out.empty() ? "" : ", states in ", a.out.c_str());
+  // A camera that froze, went blind or stopped (core/health): said, never silent.
+  for (const bool omni : {true, false}) {
+    int refused = 0, unusable = 0, first = -1;
+    for (const auto& r : recs) {
+      const CameraCheck& c = omni ? r.state.omni_check : r.state.persp_check;
+      refused += c.faults != 0 && !(c.faults & kCameraMissing);
+      if (c.state == CameraState::kUnusable && unusable++ == 0) first = static_cast<int>(r.index);
+    }
+    if (refused + unusable == 0) continue;
+    std::fprintf(stderr,
+                 "%s camera: %d frame(s) refused (repeated, stale or blind), unusable in %d%s\n",
+                 omni ? "omni" : "persp", refused, unusable,
+                 first < 0 ? "" : (", first at frame " + std::to_string(first)).c_str());
+  }
   if (InterruptSignal()) {
     ReportInterrupt("ballvision run");
     return InterruptExitCode();

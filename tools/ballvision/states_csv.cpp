@@ -29,6 +29,7 @@ std::string StatesCsvHeader(bool predict) {
   if (predict) h += ",px,py,pz";
   h += ",sigma_x,sigma_y,sigma_z";
   if (predict) h += ",psigma_x,psigma_y,psigma_z";
+  h += ",check_omni,check_persp";  // CameraState: 0 as calibrated ... 3 unusable
   return h + "\n";
 }
 
@@ -71,6 +72,10 @@ std::string StatesCsvRow(int64_t index, const BallState& s, bool predict, bool w
   if (predict) {
     sigmas({s.psigma_x_m, s.psigma_y_m, s.psigma_z_m}, (s.flags & kFlagHasPrediction) != 0);
   }
+  for (const CameraCheck* c : {&s.omni_check, &s.persp_check}) {
+    r += ",";
+    r += std::to_string(static_cast<int>(c->state));
+  }
   return r + "\n";
 }
 
@@ -83,6 +88,24 @@ std::string StatesCsvPose(bool known, float x_m, float y_m, float heading_rad) {
   r += ",";
   Append(r, "%.3f", heading_rad * 57.29577951308232);
   return r;
+}
+
+std::string CameraCheckText(const CameraCheck& check) {
+  static constexpr const char* kFaults[kCameraFaultBits] = {"repeated",  "stale time", "dark",
+                                                            "saturated", "flat",       "missing"};
+  std::string t = CameraStateName(check.state);
+  std::string why;
+  for (int b = 0; b < kCameraFaultBits; ++b) {
+    if (check.faults & (1u << b)) why += (why.empty() ? "" : ", ") + std::string(kFaults[b]);
+  }
+  return why.empty() ? t : t + " (" + why + ")";
+}
+
+std::string CameraCheckText(uint8_t byte) {
+  CameraCheck c;
+  c.state = static_cast<CameraState>(byte & 3u);
+  c.faults = static_cast<uint8_t>(byte >> 2);
+  return CameraCheckText(c);
 }
 
 }  // namespace bv::cli

@@ -16,18 +16,20 @@ import sys
 import time
 
 from .protocol import (BallState, Decoder, Goals, LinePoints, Obstacles, Pose, POSE_STATES,
-                       StatusReport, FLAG_HAS_BOUNCE, FLAG_HAS_PREDICTION)
+                       StatusReport, FLAG_HAS_BOUNCE, FLAG_HAS_PREDICTION, camera_check_text)
 from .safe_write import SafeOutput
 
 # Same columns as tools/ballvision/states_csv.cpp (StatesCsvHeader(true)) and cmd_listen.cpp.
 STATES_HEADER = ("index,t_us,found,x,y,z,vx,vy,vz,mode,omni_u,omni_v,persp_u,persp_v,ray_gap,"
-                 "t_bounce_us,proc_us,px,py,pz,sigma_x,sigma_y,sigma_z,psigma_x,psigma_y,psigma_z")
+                 "t_bounce_us,proc_us,px,py,pz,sigma_x,sigma_y,sigma_z,psigma_x,psigma_y,psigma_z,"
+                 "check_omni,check_persp")
 STATUS_HEADER = ("seq,uptime_us,frames_processed,frame_rate_hz,frames_dropped,deadline_overruns,"
                  "packets_dropped,pairs_omni_missing,pairs_persp_missing,pairs_out_of_sync,"
                  "pairs_out_of_order,pairs_torn,calibration_id,lut_id,calibration_state,"
                  "lut_state,rx_errors,command_errors,pipeline_errors,last_proc_us,max_proc_us,"
                  "fault_flags,rx_overruns,rx_ring_full,rx_line_errors,feature_packets_dropped,"
-                 "line_points_unsent")
+                 "line_points_unsent,check_omni,check_persp,omni_faults,persp_faults,"
+                 "pairs_omni_unusable,pairs_persp_unusable")
 
 
 class Interrupted(Exception):
@@ -59,6 +61,7 @@ def states_row(m: BallState) -> str:
         return ["%d.%03d" % divmod(round(v * 1000), 1000) if ok else "" for v in values]
     r += mm((m.sigma_x, m.sigma_y, m.sigma_z), m.found)
     r += mm((m.psigma_x, m.psigma_y, m.psigma_z), bool(m.flags & FLAG_HAS_PREDICTION))
+    r += [str(m.omni_check & 3), str(m.persp_check & 3)]
     return ",".join(r) + "\n"
 
 
@@ -70,7 +73,9 @@ def status_row(st: StatusReport) -> str:
             st.calibration_id, st.lut_id, st.calibration_state, st.lut_state, st.rx_errors,
             st.command_errors, st.pipeline_errors, st.last_proc_us, st.max_proc_us,
             st.fault_flags, st.rx_overruns, st.rx_ring_full, st.rx_line_errors,
-            st.feature_packets_dropped, st.line_points_unsent]
+            st.feature_packets_dropped, st.line_points_unsent, st.check_omni & 3,
+            st.check_persp & 3, st.check_omni >> 2, st.check_persp >> 2, st.pairs_omni_unusable,
+            st.pairs_persp_unusable]
     return ",".join(str(v) for v in vals) + "\n"
 
 
@@ -195,7 +200,9 @@ class _Listener:
                       f"dropped {msg.frames_dropped}, overruns {msg.deadline_overruns}, "
                       f"rx lost: uart overrun {msg.rx_overruns}, ring full {msg.rx_ring_full}, "
                       f"line errors {msg.rx_line_errors}, feature packets dropped "
-                      f"{msg.feature_packets_dropped}, line points unsent {msg.line_points_unsent}")
+                      f"{msg.feature_packets_dropped}, line points unsent {msg.line_points_unsent}; "
+                      f"cameras: omni {camera_check_text(msg.check_omni)}, persp "
+                      f"{camera_check_text(msg.check_persp)}")
         else:
             self.others += 1
 

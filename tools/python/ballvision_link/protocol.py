@@ -5,7 +5,7 @@ import zlib
 from dataclasses import dataclass
 from typing import List, Optional, Tuple
 
-VERSION = 3
+VERSION = 4
 MSG_BALL_STATE = 0x01
 MSG_STATUS = 0x02
 MSG_POSE = 0x03
@@ -30,12 +30,13 @@ _SCHEMA = (
     "ball:t_us u64,flags u16,mode u8,found u8,x y z f32,vx vy vz f32,ray_gap f32,"
     "omni_u omni_v f32,persp_u persp_v f32,t_bounce_us u64,bounce_x bounce_y f32,"
     "predict_ahead_us u32,px py pz f32,proc_us u32,sigma_x sigma_y sigma_z u16,"
-    "psigma_x psigma_y psigma_z u16;"
+    "psigma_x psigma_y psigma_z u16,omni_check persp_check u8;"
     "status:uptime_us u64,frames_processed frame_rate_mhz frames_dropped deadline_overruns "
     "packets_dropped pairs_omni_missing pairs_persp_missing pairs_out_of_sync pairs_out_of_order "
-    "pairs_torn calibration_id lut_id u32,calibration_state lut_state u8,reserved u16,"
+    "pairs_torn calibration_id lut_id u32,calibration_state lut_state u8,check_omni check_persp u8,"
     "rx_errors command_errors pipeline_errors last_proc_us max_proc_us fault_flags u32,"
-    "rx_overruns rx_ring_full rx_line_errors u32,feature_packets_dropped line_points_unsent u32;"
+    "rx_overruns rx_ring_full rx_line_errors u32,feature_packets_dropped line_points_unsent u32,"
+    "pairs_omni_unusable pairs_persp_unusable u32;"
     "pose:t_us u64,state u8,flags u8,points_used inliers u16,x y heading f32,"
     "sigma_x sigma_y sigma_heading f32,quality f32;"
     "lines:t_us u64,found u16,count u8,reserved u8,count*(x_mm y_mm i16);"
@@ -55,13 +56,22 @@ SCHEMA_HASH = zlib.crc32(_SCHEMA.encode()) & 0xFFFF
 MODES = ("none", "rolling", "flying", "bouncing")
 FLAG_SEEN_OMNI, FLAG_SEEN_PERSP, FLAG_HAS_BOUNCE, FLAG_HAS_PREDICTION = 1, 2, 1 << 11, 1 << 12
 FLAG_UNOBSERVABLE, FLAG_PREDICTION_UNCERTAIN = 1 << 13, 1 << 14
+# A camera check byte (core/common/ball_state.h CameraCheck): state, then why frames were refused.
+CAMERA_STATES = ("as calibrated", "changed, corrected", "changed, not corrected", "unusable")
+CAMERA_FAULTS = ("repeated", "stale time", "dark", "saturated", "flat", "missing")
 
-_BALL = struct.Struct("<QHBB3f3ff2f2fQ2fI3fI3H3H")
-_STATUS = struct.Struct("<Q12IBBH11I")
+
+def camera_check_text(byte: int) -> str:
+    """As the C++ CameraCheckText: "unusable (repeated, dark)"."""
+    why = [n for b, n in enumerate(CAMERA_FAULTS) if byte >> 2 & 1 << b]
+    return CAMERA_STATES[byte & 3] + (f" ({', '.join(why)})" if why else "")
+
+_BALL = struct.Struct("<QHBB3f3ff2f2fQ2fI3fI3H3HBB")
+_STATUS = struct.Struct("<Q12IBBBB13I")
 _POSE = struct.Struct("<QBBHH7f")
 _LINES_HEAD = struct.Struct("<QHBB")
 _OBSTACLES_HEAD = struct.Struct("<QBB")
-assert _BALL.size == 104 and _STATUS.size == 104 and _POSE.size == 42
+assert _BALL.size == 106 and _STATUS.size == 112 and _POSE.size == 42
 _SYNC_REPLY = struct.Struct("<IQQQ")
 _CAPTURE_FRAME = struct.Struct("<HHHBBHHQQQIII")
 _CAPTURE_CHUNK_HEAD = struct.Struct("<HHBBI")
@@ -116,6 +126,8 @@ class BallState:
     psigma_x: float  # 1-sigma of px, py, pz, m (as sigma_x)
     psigma_y: float
     psigma_z: float
+    omni_check: int  # camera check byte: state in bits 0-1, faults in bits 2-7 (CAMERA_*)
+    persp_check: int
 
 
 @dataclass
@@ -136,6 +148,8 @@ class StatusReport:
     lut_id: int
     calibration_state: int
     lut_state: int
+    check_omni: int  # camera check bytes of the last pair, as BallState.omni_check
+    check_persp: int
     rx_errors: int
     command_errors: int
     pipeline_errors: int
@@ -147,6 +161,8 @@ class StatusReport:
     rx_line_errors: int
     feature_packets_dropped: int
     line_points_unsent: int
+    pairs_omni_unusable: int
+    pairs_persp_unusable: int
 
 
 @dataclass
@@ -302,7 +318,7 @@ def parse_ball_state(seq: int, payload: bytes) -> Optional[BallState]:
         return None
     v = _BALL.unpack(payload)
     (t_us, flags, mode, found, x, y, z, vx, vy, vz, gap, ou, ov, pu, pv, tb, bx, by, ahead,
-     px, py, pz, proc, sx, sy, sz, psx, psy, psz) = v
+     px, py, pz, proc, sx, sy, sz, psx, psy, psz, check_o, check_p) = v
     if mode >= len(MODES) or found > 1:
         return None
     if found and not all(math.isfinite(a) for a in (x, y, z, vx, vy, vz)):
@@ -313,7 +329,7 @@ def parse_ball_state(seq: int, payload: bytes) -> Optional[BallState]:
                      pu if seen_p else None, pv if seen_p else None,
                      tb if flags & FLAG_HAS_BOUNCE else None, bx, by, ahead, px, py, pz, proc,
                      sx / 1000.0, sy / 1000.0, sz / 1000.0, psx / 1000.0, psy / 1000.0,
-                     psz / 1000.0)
+                     psz / 1000.0, check_o, check_p)
 
 
 def parse_status(seq: int, payload: bytes) -> Optional[StatusReport]:
@@ -323,7 +339,6 @@ def parse_status(seq: int, payload: bytes) -> Optional[StatusReport]:
     v[2] = v[2] / 1000.0  # millihertz -> Hz
     if v[13] > 2 or v[14] > 4:
         return None
-    del v[15]  # reserved
     return StatusReport(seq, *v)
 
 

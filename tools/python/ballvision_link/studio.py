@@ -31,7 +31,7 @@ from urllib.parse import parse_qs, urlparse
 from . import commands
 from .clock_sync import ClockSync
 from .protocol import (BallState, ClockSyncReply, Decoder, LinePoints, Obstacles, Pose,
-                       StatusReport, FLAG_HAS_BOUNCE)
+                       StatusReport, FLAG_HAS_BOUNCE, camera_check_text)
 from .studio_capture import CaptureWriter
 from .sync import _Link, now_us
 
@@ -333,8 +333,15 @@ class LiveLink:
                     "packets": self.packets, "decoder_errors": dict(self.dec.errors),
                     "states": st, "pose": self.pose.__dict__ if self.pose else None,
                     "obstacles": self.obstacles.obstacles if self.obstacles else [],
-                    "status": self.status.__dict__ if self.status else None, "sync": sync,
+                    "status": _status_dict(self.status) if self.status else None, "sync": sync,
                     "capture": "running" if self.capture else self.capture_msg}
+
+
+def _status_dict(st):
+    d = dict(st.__dict__)
+    d["omni_camera"] = camera_check_text(st.check_omni)
+    d["persp_camera"] = camera_check_text(st.check_persp)
+    return d
 
 
 def _state_dict(s):

@@ -280,7 +280,8 @@ function drawCounters() {
     if (st) {
       for (const k of ["frames_processed", "frame_rate_hz", "frames_dropped", "deadline_overruns", "packets_dropped",
                        "pairs_omni_missing", "pairs_persp_missing", "rx_errors", "command_errors", "pipeline_errors",
-                       "last_proc_us", "max_proc_us", "lut_state", "calibration_state"]) {
+                       "last_proc_us", "max_proc_us", "lut_state", "calibration_state", "omni_camera",
+                       "persp_camera", "pairs_omni_unusable", "pairs_persp_unusable"]) {
         rows.push([k.replace(/_/g, " "), typeof st[k] === "number" && !Number.isInteger(st[k]) ? st[k].toFixed(1) : st[k]]);
       }
     }
