@@ -89,6 +89,7 @@ int Fail(const std::string& err) {
 struct StateStreams {
   SafeOutput csv, status_csv;
   uint32_t balls = 0, statuses = 0;
+  uint16_t last_checks = 0;  // both cameras' check bytes in the last ball state
   bool quiet = false;
 
   bool Open(const std::string& csv_path, const std::string& status_path, std::string& err) {
@@ -124,6 +125,13 @@ struct StateStreams {
           f.seq, s.t_us * 1e-6, s.found ? "found" : "-", s.x_m, s.y_m, s.z_m, s.vx_mps, s.vy_mps,
           s.vz_mps, BallModeName(s.mode), s.ray_gap_m);
     }
+    // A camera's state change is shown at once, not with every tenth ball state.
+    const uint16_t checks = static_cast<uint16_t>(s.omni_check.Byte() << 8 | s.persp_check.Byte());
+    if (!quiet && checks != last_checks) {
+      std::printf("cameras seq %6u: omni %s, persp %s\n", f.seq,
+                  CameraCheckText(s.omni_check).c_str(), CameraCheckText(s.persp_check).c_str());
+    }
+    last_checks = checks;
     return true;
   }
 
