@@ -423,8 +423,8 @@ bool Pipeline::PerspField::Inside(float u_px, float v_px, float radius_px) const
       v_px + radius_px > static_cast<float>(cal.persp.height_px) - 2.0f) {
     return true;
   }
-  const Result<Ray> ray = PerspPixelToRay(cal.persp, u_px, v_px);
-  const Result<Ray> rim = PerspPixelToRay(cal.persp, u_px + radius_px, v_px);
+  const Result<Ray> ray = PerspPixelToRay(p->persp_turn_.model(), u_px, v_px);
+  const Result<Ray> rim = PerspPixelToRay(p->persp_turn_.model(), u_px + radius_px, v_px);
   if (!ray.ok() || !rim.ok() || !(radius_px > 1.0f)) return true;
   const auto q = PointFromApparentSize(*ray, AngleBetween(ray->dir, rim->dir), cal.ball_radius_m);
   if (!q.ok() || p->InField(q->x(), q->y())) return true;
@@ -455,6 +455,7 @@ Status Pipeline::Init(const RigCalibration& calibration, const ColorLut& lut,
   features_ready_ = false;
   omni_watch_.Clear();  // a camera without calibration is not watched
   persp_watch_.Clear();
+  persp_turn_.Init(calibration.persp, config_.persp_turn);
   BV_TRY(field_model_.Init(calibration.field));
   if (calibration.omni.valid) {
     const OmniScanConfig scan = PipelineOmniScan(calibration.omni, config_);
@@ -561,12 +562,13 @@ bool Pipeline::PredictAt(const Eigen::Vector3f& p) {
       }
     }
   }
-  if (calibration_->persp.valid && PerspProject(calibration_->persp, p, u, w).ok()) {
+  const PerspCalibration& persp = persp_turn_.model();
+  if (persp.valid && PerspProject(persp, p, u, w).ok()) {
     pred_persp_.valid = true;
     pred_persp_.u_px = u;
     pred_persp_.v_px = w;
-    const float range = (p - calibration_->persp.t_robot_cam).norm();
-    pred_persp_.radius_px = range > r ? calibration_->persp.fx * r / range : 0.f;
+    const float range = (p - persp.t_robot_cam).norm();
+    pred_persp_.radius_px = range > r ? persp.fx * r / range : 0.f;
     pred_persp_.silhouette_radius_px = pred_persp_.radius_px;
   }
   return pred_omni_.valid || pred_persp_.valid;
@@ -599,7 +601,7 @@ BallDetection Pipeline::Detect(BallFinder& finder, const YuyvImage& img,
 bool Pipeline::StereoConsistent(const BallDetection& omni, const BallDetection& persp) const {
   const RigCalibration& cal = *calibration_;
   const Result<Ray> ro = OmniPixelToRayExtended(cal.omni, omni.u_px, omni.v_px);
-  const Result<Ray> rp = PerspPixelToRay(cal.persp, persp.u_px, persp.v_px);
+  const Result<Ray> rp = PerspPixelToRay(persp_turn_.model(), persp.u_px, persp.v_px);
   if (!ro.ok() || !rp.ok()) return false;
   const Result<Triangulation> tri = TriangulateRays(*rp, *ro, config_.triangulation);
   if (!tri.ok() || tri->point.z() < -cal.ball_radius_m) return false;
@@ -663,6 +665,8 @@ Status Pipeline::Process(const FrameInput& delivered, BallState& out) {
   used_ = delivered;  // a member, not a stack copy: the device's stack budget is tight
   if (!omni_watch_.Observe(used_.omni, used_.omni_t_us)) used_.omni = YuyvImage{};
   if (!persp_watch_.Observe(used_.persp, used_.persp_t_us)) used_.persp = YuyvImage{};
+  // Turned beyond correction: not used either.
+  if (persp_turn_.state() == CameraState::kUnusable) used_.persp = YuyvImage{};
   const FrameInput& in = used_;
   out.omni_check = omni_watch_.check();
   out.persp_check = persp_watch_.check();
@@ -694,6 +698,7 @@ Status Pipeline::Process(const FrameInput& delivered, BallState& out) {
   }
   Lap(PipelineStage::kFilter);
   filter_.FillState(in.t_us, config_.predict_ahead_us, out);
+  WatchPerspTurn(rays, out);
   Lap(PipelineStage::kState);
   // 7. Colour adaptation from what both cameras agree on.
   AdaptColours(in, out);
@@ -703,6 +708,34 @@ Status Pipeline::Process(const FrameInput& delivered, BallState& out) {
   ReviewCandidates(in, out);
   Lap(PipelineStage::kReview);
   return Status();
+}
+
+// A confirmed ball on the floor, seen by both cameras, is a sample of the persp camera's turn
+// (core/health/persp_turn.h); its state joins the frame watch's in the persp check.
+void Pipeline::WatchPerspTurn(const CameraRays& rays, BallState& out) {
+  // Not the filter's verdict (rolling or flying): a turned camera's rays make a rolling ball fly.
+  // Whether it is on the floor is the watch's to tell, from the persp size's range.
+  if (rays.have_omni && rays.have_persp && !rays.omni_cut && !rays.persp_cut &&
+      out.persp.radius_px > 2.0f) {
+    // The calibrated rays, not the corrected ones the filter got: the estimate is of the whole
+    // turn.
+    const PerspCalibration& cal = calibration_->persp;
+    const Result<Ray> raw = PerspPixelToRay(cal, out.persp.u_px, out.persp.v_px);
+    const Result<Ray> rim =
+        PerspPixelToRay(cal, out.persp.u_px + out.persp.radius_px, out.persp.v_px);
+    if (raw.ok() && rim.ok()) {
+      const float angular = out.persp.angular_radius_rad > 0.f ? out.persp.angular_radius_rad
+                                                               : AngleBetween(raw->dir, rim->dir);
+      const float size_range = calibration_->ball_radius_m / std::sin(std::max(angular, 1e-4f));
+      persp_turn_.AddFloorSample(rays.omni, *raw, size_range, calibration_->ball_radius_m);
+    }
+  }
+  const CameraState turn = persp_turn_.state();
+  if (static_cast<uint8_t>(turn) > static_cast<uint8_t>(out.persp_check.state)) {
+    out.persp_check.state = turn;
+  }
+  out.persp_check.change_deg = persp_turn_.change_deg();
+  out.persp_check.confidence = persp_turn_.confidence();
 }
 
 void Pipeline::Lap(PipelineStage done) {
@@ -812,7 +845,7 @@ Pipeline::CameraRays Pipeline::DetectionRays(const FrameInput& in, BallState& ou
   }
   if (out.persp.found) {
     out.flags |= kFlagSeenPersp;
-    auto ray = PerspPixelToRay(cal.persp, out.persp.u_px, out.persp.v_px);
+    auto ray = PerspPixelToRay(persp_turn_.model(), out.persp.u_px, out.persp.v_px);
     if (ray.ok()) {
       rays.persp = *ray;
       rays.have_persp = true;
@@ -846,8 +879,13 @@ void Pipeline::PerspRayNoiseAndRange(const BallDetection& det, const Ray& ray, b
       fx;
   out.bias_h_rad = out.bias_v_rad =
       (config_.persp_bias_px + shape_px + (kHiddenCentroidPerMissingRadius - 1.f) * hidden_px) / fx;
+  if (persp_turn_.state() == CameraState::kChanged) {  // turned, not corrected: down-weighted
+    const float turn_rad = persp_turn_.change_deg() / 57.29578f;
+    out.sigma_h_rad = out.sigma_v_rad = std::hypot(out.sigma_h_rad, turn_rad);
+    out.bias_h_rad = out.bias_v_rad = std::hypot(out.bias_h_rad, turn_rad);
+  }
   if (det.radius_px > 0.5f && !cut_centroid) {
-    auto rim = PerspPixelToRay(cal.persp, det.u_px + det.radius_px, det.v_px);
+    auto rim = PerspPixelToRay(persp_turn_.model(), det.u_px + det.radius_px, det.v_px);
     if (rim.ok()) {
       const float angular =
           det.angular_radius_rad > 0.f ? det.angular_radius_rad : AngleBetween(ray.dir, rim->dir);
@@ -867,7 +905,7 @@ void Pipeline::PerspRayNoiseAndRange(const BallDetection& det, const Ray& ray, b
 // A cut ball's circle refined by the camera model (FitSphereCone): the centre pixel is the cone
 // axis's, the apparent size its half-angle.
 void Pipeline::RefineCutBall(const YuyvImage& img, BallDetection& det) const {
-  const PerspCalibration& cal = calibration_->persp;
+  const PerspCalibration& cal = persp_turn_.model();
   const auto regions = persp_finder_.regions().regions();
   size_t i = 0;
   while (i < regions.size() && !(regions[i].cu_px == det.u_px && regions[i].cv_px == det.v_px)) ++i;

@@ -18,6 +18,7 @@
 #include "core/field/field_model.h"
 #include "core/field/localise.h"
 #include "core/health/camera_watch.h"
+#include "core/health/persp_turn.h"
 #include "core/scanline/scanline.h"
 #include "core/triangulation/triangulation.h"
 
@@ -89,6 +90,7 @@ struct PipelineConfig {
   LocaliserConfig localiser;
   CandidateTracksConfig candidates;  // the other ball candidates, tracked beside the filter
   CameraWatchConfig watch;           // frozen, blind and missing cameras (core/health)
+  PerspTurnConfig persp_turn;        // a turned persp camera, from balls on the floor (core/health)
 };
 
 struct FrameInput {
@@ -197,6 +199,8 @@ class Pipeline {
   /// turns it off.
   void SetStageClock(StageClock clock) { stage_clock_ = clock; }
   const BallFilter& filter() const { return filter_; }
+  /// The persp camera's turn estimate; its model() is the camera model the pipeline uses.
+  const PerspTurnWatch& persp_turn() const { return persp_turn_; }
   const MeasurementInfo& last_measurement() const { return meas_; }
   /// Forgets the track (e.g. between unrelated stills); calibration and tables stay.
   void ResetTrack() {
@@ -205,6 +209,7 @@ class Pipeline {
     handover_ = Handover{};
     omni_watch_.Reset();
     persp_watch_.Reset();
+    persp_turn_.Reset();
   }
   /// Online colour adaptation (core/color_lut/color_adapt.h), fed with the detections both
   /// cameras confirm; null turns it off. The adapter must outlive the pipeline's use of it.
@@ -272,6 +277,7 @@ class Pipeline {
   void RefineCutBall(const YuyvImage& img, BallDetection& det) const;
   void AdaptColours(const FrameInput& in, const BallState& out);
   void CheckTrackInField(bool have_field_pose, BallState& out);
+  void WatchPerspTurn(const CameraRays& rays, BallState& out);
   void ReviewCandidates(const FrameInput& in, const BallState& out);
   bool PredictAt(const Eigen::Vector3f& p);
   bool OwnPoseTrusted() const;  // the localiser's pose, usable and within usable_sigma_m
@@ -292,6 +298,7 @@ class Pipeline {
   BallCheck persp_check_;
   BallFilter filter_;
   CameraWatch omni_watch_, persp_watch_;
+  PerspTurnWatch persp_turn_;
   FrameInput used_;  // this pair's frames as Process() uses them (refused ones left out)
   ImagePrediction pred_omni_, pred_persp_;
   MeasurementInfo meas_;

@@ -31,6 +31,12 @@ YuyvImage ToImage(const hal::Frame& f) {
   return YuyvImage{f.data, kFrameWidth, kFrameHeight, static_cast<int>(stride)};
 }
 
+// A camera check's confidence as the status packet carries it: saturated, NaN as 0.
+uint8_t Percent(float fraction) {
+  const float p = fraction * 100.0f + 0.5f;
+  return p >= 100.0f ? uint8_t{100} : p >= 0.0f ? static_cast<uint8_t>(p) : uint8_t{0};
+}
+
 }  // namespace
 
 MainLoop::MainLoop(hal::Camera& camera, hal::Uart& uart, hal::Clock& clock, hal::Storage& storage,
@@ -865,6 +871,10 @@ bool MainLoop::Poll() {
   }
   status_.check_omni = state.omni_check.Byte();
   status_.check_persp = state.persp_check.Byte();
+  status_.change_omni_cdeg = protocol::ChangeCentiDegrees(state.omni_check.change_deg);
+  status_.change_persp_cdeg = protocol::ChangeCentiDegrees(state.persp_check.change_deg);
+  status_.confidence_omni_pct = Percent(state.omni_check.confidence);
+  status_.confidence_persp_pct = Percent(state.persp_check.confidence);
   if (state.omni_check.state == CameraState::kUnusable) ++status_.pairs_omni_unusable;
   if (state.persp_check.state == CameraState::kUnusable) ++status_.pairs_persp_unusable;
   const uint64_t proc_us = clock_.NowUs() - start_us;

@@ -684,6 +684,8 @@ TEST(PipelineCli, RunWritesTheDesignColumns) {
                                          "psigma_z",
                                          "check_omni",
                                          "check_persp",
+                                         "check_omni_deg",
+                                         "check_persp_deg",
                                          "pose_x",
                                          "pose_y",
                                          "pose_heading_deg"};

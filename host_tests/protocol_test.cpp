@@ -437,13 +437,13 @@ TEST(Protocol, LinkBudgetFitsAt60Hz) {
       WireFrameBytes(kLinePointsHeaderBytes + kMaxLinePointsPerPacket * kLinePointBytes);
   const size_t goals = WireFrameBytes(kGoalsHeaderBytes + kMaxGoalsPerPacket * kGoalBytes);
   EXPECT_EQ(goals, 50u);
-  EXPECT_EQ(ball, 122u);
-  EXPECT_EQ(status, 128u);
+  EXPECT_EQ(ball, 126u);
+  EXPECT_EQ(status, 134u);
   EXPECT_EQ(pose, 58u);
   EXPECT_EQ(obstacles, 122u);
   EXPECT_EQ(lines, 285u);
   const size_t per_pair = ball + status + pose + obstacles + goals + lines;
-  EXPECT_EQ(per_pair, 765u);
+  EXPECT_EQ(per_pair, 775u);
   const size_t bytes_per_s = 921600 / 10;          // 8N1: 10 bits a byte
   EXPECT_LT(per_pair * 60, bytes_per_s * 6 / 10);  // < 60 % of the link at 60 Hz
 }

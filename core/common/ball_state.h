@@ -68,7 +68,9 @@ inline constexpr uint8_t kCameraFaultBits = 6;
 
 struct CameraCheck {
   CameraState state = CameraState::kAsCalibrated;
-  uint8_t faults = 0;  // CameraFault: this frame's, also before they last long enough to flag
+  uint8_t faults = 0;    // CameraFault: this frame's, also before they last long enough to flag
+  float change_deg = 0;  // estimated change of the camera's pose since calibration (degrees)
+  float confidence = 0;  // 0..1: how much of the evidence agrees with change_deg
   // Packet byte: state in bits 0-1, faults in bits 2-7.
   uint8_t Byte() const { return static_cast<uint8_t>(static_cast<uint8_t>(state) | faults << 2); }
 };

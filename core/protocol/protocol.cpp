@@ -14,13 +14,15 @@ constexpr char kSchema[] =
     "ball:t_us u64,flags u16,mode u8,found u8,x y z f32,vx vy vz f32,ray_gap f32,"
     "omni_u omni_v f32,persp_u persp_v f32,t_bounce_us u64,bounce_x bounce_y f32,"
     "predict_ahead_us u32,px py pz f32,proc_us u32,sigma_x sigma_y sigma_z u16,"
-    "psigma_x psigma_y psigma_z u16,omni_check persp_check u8;"
+    "psigma_x psigma_y psigma_z u16,omni_check persp_check u8,"
+    "omni_change_cdeg persp_change_cdeg u16;"
     "status:uptime_us u64,frames_processed frame_rate_mhz frames_dropped deadline_overruns "
     "packets_dropped pairs_omni_missing pairs_persp_missing pairs_out_of_sync pairs_out_of_order "
     "pairs_torn calibration_id lut_id u32,calibration_state lut_state u8,check_omni check_persp u8,"
     "rx_errors command_errors pipeline_errors last_proc_us max_proc_us fault_flags u32,"
     "rx_overruns rx_ring_full rx_line_errors u32,feature_packets_dropped line_points_unsent u32,"
-    "pairs_omni_unusable pairs_persp_unusable u32;"
+    "pairs_omni_unusable pairs_persp_unusable u32,change_omni_cdeg change_persp_cdeg u16,"
+    "confidence_omni_pct confidence_persp_pct u8;"
     "pose:t_us u64,state u8,flags u8,points_used inliers u16,x y heading f32,"
     "sigma_x sigma_y sigma_heading f32,quality f32;"
     "lines:t_us u64,found u16,count u8,reserved u8,count*(x_mm y_mm i16);"
@@ -131,6 +133,11 @@ uint16_t BallSigmaMm(float sigma_m) {
   return mm >= 65535.f ? 65535 : static_cast<uint16_t>(mm);
 }
 
+uint16_t ChangeCentiDegrees(float deg) {
+  const float c = deg * 100.0f + 0.5f;
+  return c >= 65535.0f ? uint16_t{65535} : c >= 0.0f ? static_cast<uint16_t>(c) : uint16_t{0};
+}
+
 Result<size_t> EncodeBallState(const BallState& s, uint32_t seq, std::span<uint8_t> out) {
   uint8_t p[kBallStatePayloadBytes];
   ByteWriter w(p);
@@ -152,6 +159,8 @@ Result<size_t> EncodeBallState(const BallState& s, uint32_t seq, std::span<uint8
   for (const float sigma : {s.psigma_x_m, s.psigma_y_m, s.psigma_z_m}) w.U16(BallSigmaMm(sigma));
   w.U8(s.omni_check.Byte());
   w.U8(s.persp_check.Byte());
+  w.U16(ChangeCentiDegrees(s.omni_check.change_deg));
+  w.U16(ChangeCentiDegrees(s.persp_check.change_deg));
   static_assert(sizeof(p) == kBallStatePayloadBytes);
   if (w.size() != kBallStatePayloadBytes) return Status(StatusCode::kInternal, "ball payload size");
   return EncodeFrame(MsgType::kBallState, seq, w.written(), out);
@@ -184,6 +193,8 @@ Status ParseBallState(std::span<const uint8_t> payload, BallState& out) {
     c->state = static_cast<CameraState>(b & 3u);
     c->faults = static_cast<uint8_t>(b >> 2);  // six bits: every value is a valid set
   }
+  s.omni_check.change_deg = r.U16() * 0.01f;
+  s.persp_check.change_deg = r.U16() * 0.01f;
   if (mode > static_cast<uint8_t>(BallMode::kBouncing)) {
     return Status(StatusCode::kInvalidArgument, "ball state: unknown mode");
   }
@@ -220,6 +231,10 @@ Result<size_t> EncodeStatus(const StatusReport& s, uint32_t seq, std::span<uint8
         s.line_points_unsent, s.pairs_omni_unusable, s.pairs_persp_unusable}) {
     w.U32(v);
   }
+  w.U16(s.change_omni_cdeg);
+  w.U16(s.change_persp_cdeg);
+  w.U8(s.confidence_omni_pct);
+  w.U8(s.confidence_persp_pct);
   if (w.size() != kStatusPayloadBytes) return Status(StatusCode::kInternal, "status payload size");
   return EncodeFrame(MsgType::kStatus, seq, w.written(), out);
 }
@@ -248,6 +263,13 @@ Status ParseStatus(std::span<const uint8_t> payload, StatusReport& out) {
                       &s.line_points_unsent,  &s.pairs_omni_unusable,
                       &s.pairs_persp_unusable};
   for (uint32_t* f : tail) *f = r.U32();
+  s.change_omni_cdeg = r.U16();
+  s.change_persp_cdeg = r.U16();
+  s.confidence_omni_pct = r.U8();
+  s.confidence_persp_pct = r.U8();
+  if (s.confidence_omni_pct > 100 || s.confidence_persp_pct > 100) {
+    return Status(StatusCode::kInvalidArgument, "status: confidence above 100 %");
+  }
   if (s.calibration_state > 2 || s.lut_state > 4) {
     return Status(StatusCode::kInvalidArgument, "status: unknown blob state");
   }

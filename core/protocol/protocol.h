@@ -62,8 +62,8 @@ enum class MsgType : uint8_t {
 /// listener built from another revision refuses the stream instead of misreading it.
 uint16_t SchemaHash();
 
-inline constexpr size_t kBallStatePayloadBytes = 106;
-inline constexpr size_t kStatusPayloadBytes = 112;
+inline constexpr size_t kBallStatePayloadBytes = 110;
+inline constexpr size_t kStatusPayloadBytes = 118;
 inline constexpr size_t kPosePayloadBytes = 42;
 // Line points per packet: the 35-51 a frame typically has fit whole; beyond, an evenly spread
 // subset is sent (docs/protocol.md has the link budget).
@@ -113,6 +113,11 @@ struct StatusReport {
   // Pairs whose camera was kUnusable (frozen, blind, missing: not used), since start.
   uint32_t pairs_omni_unusable = 0;
   uint32_t pairs_persp_unusable = 0;
+  // Each camera's estimated pose change since calibration (CameraCheck::change_deg), centidegrees
+  // saturated at 65535, and its confidence in percent (issue 40: a knocked mirror, a turned
+  // camera).
+  uint16_t change_omni_cdeg = 0, change_persp_cdeg = 0;
+  uint8_t confidence_omni_pct = 0, confidence_persp_pct = 0;
 };
 
 /// Decoded pose packet (the localiser's PoseEstimate at the pair's exposure time).
@@ -189,6 +194,9 @@ Result<size_t> EncodeFrame(MsgType type, uint32_t seq, std::span<const uint8_t> 
 /// A position 1-sigma as the ball state carries it: whole millimetres rounded up, saturated at
 /// 65535 (also for a non-finite value: "unknown" is as large as it gets).
 uint16_t BallSigmaMm(float sigma_m);
+/// A camera check's change_deg as the packets carry it: centidegrees, saturated at 65535, a
+/// negative or NaN value as 0.
+uint16_t ChangeCentiDegrees(float deg);
 Result<size_t> EncodeBallState(const BallState& state, uint32_t seq, std::span<uint8_t> out);
 Result<size_t> EncodeStatus(const StatusReport& status, uint32_t seq, std::span<uint8_t> out);
 Result<size_t> EncodePose(const PoseEstimate& pose, uint64_t t_us, uint32_t seq,

@@ -106,7 +106,8 @@ struct StateStreams {
                     "lut_state,rx_errors,command_errors,pipeline_errors,last_proc_us,max_proc_us,"
                     "fault_flags,rx_overruns,rx_ring_full,rx_line_errors,feature_packets_dropped,"
                     "line_points_unsent,check_omni,check_persp,omni_faults,persp_faults,"
-                    "pairs_omni_unusable,pairs_persp_unusable\n";
+                    "pairs_omni_unusable,pairs_persp_unusable,change_omni_deg,change_persp_deg,"
+                    "confidence_omni,confidence_persp\n";
     }
   }
 
@@ -153,7 +154,9 @@ struct StateStreams {
                  << st.line_points_unsent << ',' << (st.check_omni & 3) << ','
                  << (st.check_persp & 3) << ',' << (st.check_omni >> 2) << ','
                  << (st.check_persp >> 2) << ',' << st.pairs_omni_unusable << ','
-                 << st.pairs_persp_unusable << '\n';
+                 << st.pairs_persp_unusable << ',' << st.change_omni_cdeg / 100.0 << ','
+                 << st.change_persp_cdeg / 100.0 << ',' << st.confidence_omni_pct / 100.0 << ','
+                 << st.confidence_persp_pct / 100.0 << '\n';
     }
     if (!quiet) {
       std::printf(

@@ -29,7 +29,8 @@ std::string StatesCsvHeader(bool predict) {
   if (predict) h += ",px,py,pz";
   h += ",sigma_x,sigma_y,sigma_z";
   if (predict) h += ",psigma_x,psigma_y,psigma_z";
-  h += ",check_omni,check_persp";  // CameraState: 0 as calibrated ... 3 unusable
+  // CameraState (0 as calibrated ... 3 unusable), the estimated change in degrees.
+  h += ",check_omni,check_persp,check_omni_deg,check_persp_deg";
   return h + "\n";
 }
 
@@ -75,6 +76,13 @@ std::string StatesCsvRow(int64_t index, const BallState& s, bool predict, bool w
   for (const CameraCheck* c : {&s.omni_check, &s.persp_check}) {
     r += ",";
     r += std::to_string(static_cast<int>(c->state));
+  }
+  // As the packet carries it (centidegrees), so run and listen write the same.
+  for (const CameraCheck* c : {&s.omni_check, &s.persp_check}) {
+    const int cdeg = protocol::ChangeCentiDegrees(c->change_deg);
+    char buf[16];
+    std::snprintf(buf, sizeof buf, ",%d.%02d", cdeg / 100, cdeg % 100);
+    r += buf;
   }
   return r + "\n";
 }

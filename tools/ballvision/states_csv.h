@@ -9,7 +9,8 @@
 namespace bv::cli {
 
 /// index,t_us,found,x,y,z,vx,vy,vz,mode,omni_u,omni_v,persp_u,persp_v,ray_gap,t_bounce_us,proc_us
-/// (+ px,py,pz with `predict`), sigma_x.. (+ psigma_x..), check_omni,check_persp (CameraState).
+/// (+ px,py,pz with `predict`), sigma_x.. (+ psigma_x..), check_omni,check_persp (CameraState),
+/// check_omni_deg,check_persp_deg (the estimated change, 2 decimals).
 std::string StatesCsvHeader(bool predict);
 /// One row. Positions in metres with 5 decimals, pixels with 3; image centres empty when that
 /// camera did not see the ball; t_bounce_us empty when no bounce is predicted. `with_proc`

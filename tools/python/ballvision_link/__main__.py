@@ -22,14 +22,15 @@ from .safe_write import SafeOutput
 # Same columns as tools/ballvision/states_csv.cpp (StatesCsvHeader(true)) and cmd_listen.cpp.
 STATES_HEADER = ("index,t_us,found,x,y,z,vx,vy,vz,mode,omni_u,omni_v,persp_u,persp_v,ray_gap,"
                  "t_bounce_us,proc_us,px,py,pz,sigma_x,sigma_y,sigma_z,psigma_x,psigma_y,psigma_z,"
-                 "check_omni,check_persp")
+                 "check_omni,check_persp,check_omni_deg,check_persp_deg")
 STATUS_HEADER = ("seq,uptime_us,frames_processed,frame_rate_hz,frames_dropped,deadline_overruns,"
                  "packets_dropped,pairs_omni_missing,pairs_persp_missing,pairs_out_of_sync,"
                  "pairs_out_of_order,pairs_torn,calibration_id,lut_id,calibration_state,"
                  "lut_state,rx_errors,command_errors,pipeline_errors,last_proc_us,max_proc_us,"
                  "fault_flags,rx_overruns,rx_ring_full,rx_line_errors,feature_packets_dropped,"
                  "line_points_unsent,check_omni,check_persp,omni_faults,persp_faults,"
-                 "pairs_omni_unusable,pairs_persp_unusable")
+                 "pairs_omni_unusable,pairs_persp_unusable,change_omni_deg,change_persp_deg,"
+                 "confidence_omni,confidence_persp")
 
 
 class Interrupted(Exception):
@@ -62,6 +63,7 @@ def states_row(m: BallState) -> str:
     r += mm((m.sigma_x, m.sigma_y, m.sigma_z), m.found)
     r += mm((m.psigma_x, m.psigma_y, m.psigma_z), bool(m.flags & FLAG_HAS_PREDICTION))
     r += [str(m.omni_check & 3), str(m.persp_check & 3)]
+    r += ["%d.%02d" % divmod(round(v * 100), 100) for v in (m.omni_change_deg, m.persp_change_deg)]
     return ",".join(r) + "\n"
 
 
@@ -75,7 +77,8 @@ def status_row(st: StatusReport) -> str:
             st.fault_flags, st.rx_overruns, st.rx_ring_full, st.rx_line_errors,
             st.feature_packets_dropped, st.line_points_unsent, st.check_omni & 3,
             st.check_persp & 3, st.check_omni >> 2, st.check_persp >> 2, st.pairs_omni_unusable,
-            st.pairs_persp_unusable]
+            st.pairs_persp_unusable, "%g" % st.change_omni_deg, "%g" % st.change_persp_deg,
+            "%g" % st.confidence_omni, "%g" % st.confidence_persp]
     return ",".join(str(v) for v in vals) + "\n"
 
 

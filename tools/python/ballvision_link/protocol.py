@@ -30,13 +30,15 @@ _SCHEMA = (
     "ball:t_us u64,flags u16,mode u8,found u8,x y z f32,vx vy vz f32,ray_gap f32,"
     "omni_u omni_v f32,persp_u persp_v f32,t_bounce_us u64,bounce_x bounce_y f32,"
     "predict_ahead_us u32,px py pz f32,proc_us u32,sigma_x sigma_y sigma_z u16,"
-    "psigma_x psigma_y psigma_z u16,omni_check persp_check u8;"
+    "psigma_x psigma_y psigma_z u16,omni_check persp_check u8,"
+    "omni_change_cdeg persp_change_cdeg u16;"
     "status:uptime_us u64,frames_processed frame_rate_mhz frames_dropped deadline_overruns "
     "packets_dropped pairs_omni_missing pairs_persp_missing pairs_out_of_sync pairs_out_of_order "
     "pairs_torn calibration_id lut_id u32,calibration_state lut_state u8,check_omni check_persp u8,"
     "rx_errors command_errors pipeline_errors last_proc_us max_proc_us fault_flags u32,"
     "rx_overruns rx_ring_full rx_line_errors u32,feature_packets_dropped line_points_unsent u32,"
-    "pairs_omni_unusable pairs_persp_unusable u32;"
+    "pairs_omni_unusable pairs_persp_unusable u32,change_omni_cdeg change_persp_cdeg u16,"
+    "confidence_omni_pct confidence_persp_pct u8;"
     "pose:t_us u64,state u8,flags u8,points_used inliers u16,x y heading f32,"
     "sigma_x sigma_y sigma_heading f32,quality f32;"
     "lines:t_us u64,found u16,count u8,reserved u8,count*(x_mm y_mm i16);"
@@ -66,12 +68,12 @@ def camera_check_text(byte: int) -> str:
     why = [n for b, n in enumerate(CAMERA_FAULTS) if byte >> 2 & 1 << b]
     return CAMERA_STATES[byte & 3] + (f" ({', '.join(why)})" if why else "")
 
-_BALL = struct.Struct("<QHBB3f3ff2f2fQ2fI3fI3H3HBB")
-_STATUS = struct.Struct("<Q12IBBBB13I")
+_BALL = struct.Struct("<QHBB3f3ff2f2fQ2fI3fI3H3HBBHH")
+_STATUS = struct.Struct("<Q12IBBBB13IHHBB")
 _POSE = struct.Struct("<QBBHH7f")
 _LINES_HEAD = struct.Struct("<QHBB")
 _OBSTACLES_HEAD = struct.Struct("<QBB")
-assert _BALL.size == 106 and _STATUS.size == 112 and _POSE.size == 42
+assert _BALL.size == 110 and _STATUS.size == 118 and _POSE.size == 42
 _SYNC_REPLY = struct.Struct("<IQQQ")
 _CAPTURE_FRAME = struct.Struct("<HHHBBHHQQQIII")
 _CAPTURE_CHUNK_HEAD = struct.Struct("<HHBBI")
@@ -128,6 +130,8 @@ class BallState:
     psigma_z: float
     omni_check: int  # camera check byte: state in bits 0-1, faults in bits 2-7 (CAMERA_*)
     persp_check: int
+    omni_change_deg: float  # estimated pose change since calibration (0.01 deg resolution)
+    persp_change_deg: float
 
 
 @dataclass
@@ -163,6 +167,10 @@ class StatusReport:
     line_points_unsent: int
     pairs_omni_unusable: int
     pairs_persp_unusable: int
+    change_omni_deg: float  # estimated pose change since calibration (0.01 deg resolution)
+    change_persp_deg: float
+    confidence_omni: float  # 0..1
+    confidence_persp: float
 
 
 @dataclass
@@ -318,7 +326,7 @@ def parse_ball_state(seq: int, payload: bytes) -> Optional[BallState]:
         return None
     v = _BALL.unpack(payload)
     (t_us, flags, mode, found, x, y, z, vx, vy, vz, gap, ou, ov, pu, pv, tb, bx, by, ahead,
-     px, py, pz, proc, sx, sy, sz, psx, psy, psz, check_o, check_p) = v
+     px, py, pz, proc, sx, sy, sz, psx, psy, psz, check_o, check_p, change_o, change_p) = v
     if mode >= len(MODES) or found > 1:
         return None
     if found and not all(math.isfinite(a) for a in (x, y, z, vx, vy, vz)):
@@ -329,7 +337,7 @@ def parse_ball_state(seq: int, payload: bytes) -> Optional[BallState]:
                      pu if seen_p else None, pv if seen_p else None,
                      tb if flags & FLAG_HAS_BOUNCE else None, bx, by, ahead, px, py, pz, proc,
                      sx / 1000.0, sy / 1000.0, sz / 1000.0, psx / 1000.0, psy / 1000.0,
-                     psz / 1000.0, check_o, check_p)
+                     psz / 1000.0, check_o, check_p, change_o / 100.0, change_p / 100.0)
 
 
 def parse_status(seq: int, payload: bytes) -> Optional[StatusReport]:
@@ -337,8 +345,9 @@ def parse_status(seq: int, payload: bytes) -> Optional[StatusReport]:
         return None
     v = list(_STATUS.unpack(payload))
     v[2] = v[2] / 1000.0  # millihertz -> Hz
-    if v[13] > 2 or v[14] > 4:
+    if v[13] > 2 or v[14] > 4 or v[-2] > 100 or v[-1] > 100:
         return None
+    v[-4:] = [v[-4] / 100.0, v[-3] / 100.0, v[-2] / 100.0, v[-1] / 100.0]
     return StatusReport(seq, *v)
 
 

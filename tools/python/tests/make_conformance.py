@@ -16,8 +16,8 @@ from ballvision_link.protocol import HEADER, SCHEMA_HASH, VERSION, cobs_encode  
 OUT = os.path.join(os.path.dirname(__file__), "..", "..", "..", "host_tests", "data",
                    "protocol_conformance.json")
 BALL, STATUS = 0x01, 0x02
-BALL_FMT = struct.Struct("<QHBB3f3ff2f2fQ2fI3fI3H3HBB")
-STATUS_FMT = struct.Struct("<Q12IBBBB13I")
+BALL_FMT = struct.Struct("<QHBB3f3ff2f2fQ2fI3fI3H3HBBHH")
+STATUS_FMT = struct.Struct("<Q12IBBBB13IHHBB")
 
 
 def raw(mtype, seq, payload, version=VERSION, schema=SCHEMA_HASH, length=None, crc_xor=0):
@@ -33,13 +33,13 @@ def wire(r):
 def ball(t_us=1000000, flags=3, mode=1, found=1, x=0.25):
     return BALL_FMT.pack(t_us, flags, mode, found, x, 3.5, 0.11, -1, 0.5, 0, 0.004, 100.5,
                          200.25, 300, 240, 0, 0, 0, 0, 0, 0, 0, 1234, 12, 15, 40, 0, 0, 0,
-                         0, 3 | 5 << 2)  # persp unusable: repeated, dark
+                         0, 3 | 5 << 2, 0, 0)  # persp unusable: repeated, dark
 
 
 def status(cal_state=0, lut_state=0):
     return STATUS_FMT.pack(5000000, 30, 30000, 0, 0, 0, 0, 0, 0, 0, 0, 0x1234, 0x5678,
                            cal_state, lut_state, 0, 3 | 5 << 2, 0, 0, 0, 100, 200, 0, 0, 0, 0, 0,
-                           0, 0, 12)
+                           0, 0, 12, 0, 125, 0, 90)
 
 
 def case(name, data, msgs=(), **counters):

@@ -1,0 +1,134 @@
+#include "core/health/persp_turn.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/Geometry>
+
+namespace bv {
+namespace {
+
+constexpr float kDegPerRad = 57.29578f;
+
+// Median of v[0..n) (reorders v; n small): insertion sort.
+float Median(float* v, int n) {
+  for (int i = 1; i < n; ++i) {
+    const float x = v[i];
+    int j = i - 1;
+    while (j >= 0 && v[j] > x) v[j + 1] = v[j], --j;
+    v[j + 1] = x;
+  }
+  return n % 2 ? v[n / 2] : 0.5f * (v[n / 2 - 1] + v[n / 2]);
+}
+
+}  // namespace
+
+void PerspTurnWatch::Init(const PerspCalibration& persp, const PerspTurnConfig& config) {
+  config_ = config;
+  calibrated_ = persp;
+  right_ = persp.R_robot_cam.col(0).normalized();
+  Reset();
+}
+
+void PerspTurnWatch::Reset() {
+  count_ = next_ = 0;
+  last_point_ = Eigen::Vector3f::Constant(1e9f);
+  pitch_rad_ = yaw_rad_ = change_deg_ = confidence_ = 0;
+  state_ = CameraState::kAsCalibrated;
+  model_ = calibrated_;
+}
+
+void PerspTurnWatch::AddFloorSample(const Ray& omni, const Ray& persp, float size_range_m,
+                                    float ball_radius_m) {
+  if (!config_.enabled || !calibrated_.valid) return;
+  if (!(omni.dir.z() < -1e-3f)) return;  // does not come down to the floor plane
+  const float t = (ball_radius_m - omni.origin.z()) / omni.dir.z();
+  if (!(t > 0.0f)) return;
+  const Eigen::Vector3f p = omni.origin + t * omni.dir;
+  const Eigen::Vector3f to_p = p - persp.origin;
+  const float range = std::hypot(to_p.x(), to_p.y());
+  if (!(range >= config_.min_range_m && range <= config_.max_range_m)) return;
+  if (!(std::fabs(to_p.norm() / size_range_m - 1.0f) <= config_.floor_size_gate)) return;
+  const Eigen::Vector3f d = persp.dir.normalized();
+  if (!d.allFinite() || (p - last_point_).norm() < config_.min_spacing_m) return;
+  last_point_ = p;
+  ray_[next_] = d;
+  target_[next_] = to_p / to_p.norm();
+  next_ = (next_ + 1) % kWindow;
+  if (count_ < kWindow) ++count_;
+  Decide();
+}
+
+// Least squares for the small rotation w = pitch * right + yaw * z that takes each ray d onto
+// its target t: t - d = w x d = pitch (right x d) + yaw (z x d), over the samples within
+// trim_deg of the given (pitch, yaw).
+bool PerspTurnWatch::Fit(float& pitch, float& yaw) const {
+  const float trim_rad = config_.trim_deg / kDegPerRad;
+  float aa = 0, ab = 0, bb = 0, ae = 0, be = 0;
+  int used = 0;
+  for (int i = 0; i < count_; ++i) {
+    const Eigen::Vector3f a = right_.cross(ray_[i]);
+    const Eigen::Vector3f b = Eigen::Vector3f::UnitZ().cross(ray_[i]);
+    const Eigen::Vector3f e = target_[i] - ray_[i];
+    if ((e - pitch * a - yaw * b).norm() > trim_rad) continue;
+    aa += a.dot(a), ab += a.dot(b), bb += b.dot(b);
+    ae += a.dot(e), be += b.dot(e);
+    ++used;
+  }
+  const float det = aa * bb - ab * ab;
+  if (used < config_.min_samples || !(det > 1e-9f)) return false;
+  pitch = (bb * ae - ab * be) / det;
+  yaw = (aa * be - ab * ae) / det;
+  return std::isfinite(pitch) && std::isfinite(yaw);
+}
+
+void PerspTurnWatch::Decide() {
+  if (count_ < config_.min_samples) return;
+  // A start that outliers cannot move: each sample's own pitch and yaw (the two axes are nearly
+  // orthogonal for rays near the horizon), their medians; then least squares over the samples
+  // that agree with it. When too few agree (a large turn, where the small-angle model is
+  // coarse) the medians stand, with their low confidence.
+  float pitches[kWindow], yaws[kWindow];
+  for (int i = 0; i < count_; ++i) {
+    const Eigen::Vector3f a = right_.cross(ray_[i]);
+    const Eigen::Vector3f b = Eigen::Vector3f::UnitZ().cross(ray_[i]);
+    const Eigen::Vector3f e = target_[i] - ray_[i];
+    pitches[i] = a.dot(e) / std::max(a.squaredNorm(), 1e-6f);
+    yaws[i] = b.dot(e) / std::max(b.squaredNorm(), 1e-6f);
+  }
+  float pitch = Median(pitches, count_), yaw = Median(yaws, count_);
+  float fit_pitch = pitch, fit_yaw = yaw;
+  if (Fit(fit_pitch, fit_yaw)) pitch = fit_pitch, yaw = fit_yaw;
+  const float trim_rad = config_.trim_deg / kDegPerRad;
+  int agree = 0;
+  for (int i = 0; i < count_; ++i) {
+    const Eigen::Vector3f e = target_[i] - ray_[i] - pitch * right_.cross(ray_[i]) -
+                              yaw * Eigen::Vector3f::UnitZ().cross(ray_[i]);
+    agree += e.norm() <= trim_rad;
+  }
+  pitch_rad_ = pitch;
+  yaw_rad_ = yaw;
+  change_deg_ = std::hypot(pitch, yaw) * kDegPerRad;
+  confidence_ = static_cast<float>(agree) / static_cast<float>(count_);
+  // Flagged at flag_deg, cleared below 0.6 of it: no flicker at the threshold.
+  const bool was_changed = state_ != CameraState::kAsCalibrated;
+  const float flag = was_changed ? 0.6f * config_.flag_deg : config_.flag_deg;
+  if (change_deg_ < flag) {
+    state_ = CameraState::kAsCalibrated;
+  } else if (change_deg_ > config_.unusable_deg) {
+    state_ = CameraState::kUnusable;
+  } else if (config_.correct && change_deg_ <= config_.correct_max_deg) {
+    state_ = CameraState::kCorrected;
+  } else {
+    state_ = CameraState::kChanged;
+  }
+  model_ = calibrated_;
+  if (state_ == CameraState::kCorrected) {
+    model_.R_robot_cam =
+        (Eigen::AngleAxisf(yaw, Eigen::Vector3f::UnitZ()) * Eigen::AngleAxisf(pitch, right_))
+            .toRotationMatrix() *
+        calibrated_.R_robot_cam;
+  }
+}
+
+}  // namespace bv

@@ -1,0 +1,153 @@
+// A turned persp camera told from balls on the floor (core/health/persp_turn.h): synthetic
+// floor points seen through a camera turned after calibration, with ray noise and outliers.
+#include "core/health/persp_turn.h"
+
+#include <cmath>
+#include <random>
+
+#include <gtest/gtest.h>
+#include <Eigen/Geometry>
+
+namespace bv {
+namespace {
+
+constexpr float kBallRadius = 0.11f;
+constexpr float kRad = 3.14159265f / 180.0f;
+
+// The reference rig's persp camera: 0.5 m up, looking along +y, pitched down 8 degrees.
+PerspCalibration Camera() {
+  PerspCalibration c;
+  c.valid = true;
+  c.fx = c.fy = 500, c.cx = 320, c.cy = 240;
+  // Camera x right, y down, z forward -> robot: x = x_c, forward +y = z_c, up = -y_c.
+  Eigen::Matrix3f base;
+  base << 1, 0, 0, 0, 0, 1, 0, -1, 0;
+  c.R_robot_cam = Eigen::AngleAxisf(-8 * kRad, Eigen::Vector3f::UnitX()).toRotationMatrix() * base;
+  c.t_robot_cam = Eigen::Vector3f(0, 0.1f, 0.5f);
+  return c;
+}
+
+struct Scene {
+  float pitch_deg = 0, yaw_deg = 0;  // the true turn since calibration
+  float noise_mrad = 1.5f;           // per ray, both cameras
+  float outliers = 0;                // share of samples with a wrong omni point (another object)
+  float height_m = kBallRadius;      // the ball's centre: above the radius, it is in the air
+};
+
+// Feeds n floor samples; returns the watch.
+void Feed(PerspTurnWatch& w, const Scene& s, int n, uint32_t seed = 3) {
+  const PerspCalibration cal = Camera();
+  const Eigen::Vector3f right = cal.R_robot_cam.col(0);
+  // Calibrated ray of a true direction: the pixel was made by the turned camera.
+  const Eigen::Matrix3f turn = (Eigen::AngleAxisf(s.yaw_deg * kRad, Eigen::Vector3f::UnitZ()) *
+                                Eigen::AngleAxisf(s.pitch_deg * kRad, right))
+                                   .toRotationMatrix();
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> range(1.0f, 5.0f), az(-35.f, 35.f), u01(0.f, 1.f);
+  std::normal_distribution<float> noise(0.f, s.noise_mrad * 1e-3f), size_noise(0.f, 0.03f);
+  const Eigen::Vector3f mirror(0, 0, 0.78f);
+  for (int i = 0; i < n; ++i) {
+    const float r = range(rng), a = (90.f + az(rng)) * kRad;
+    const Eigen::Vector3f p(r * std::cos(a), r * std::sin(a), s.height_m);
+    Ray omni{mirror, (p - mirror).normalized()};
+    // An outlier: the omni camera's region is something else beside the ball (same range).
+    if (u01(rng) < s.outliers) omni.dir = (p + Eigen::Vector3f(0.3f, 0, 0) - mirror).normalized();
+    omni.dir = (omni.dir + Eigen::Vector3f(noise(rng), noise(rng), noise(rng))).normalized();
+    Ray persp{cal.t_robot_cam, turn.transpose() * (p - cal.t_robot_cam).normalized()};
+    persp.dir = (persp.dir + Eigen::Vector3f(noise(rng), noise(rng), noise(rng))).normalized();
+    const float size_range = (p - cal.t_robot_cam).norm() * (1.0f + size_noise(rng));
+    w.AddFloorSample(omni, persp, size_range, kBallRadius);
+  }
+}
+
+TEST(PerspTurn, AnUnchangedCameraStaysAsCalibrated) {
+  PerspTurnWatch w;
+  w.Init(Camera(), PerspTurnConfig{});
+  Feed(w, Scene{}, 200);
+  EXPECT_EQ(w.state(), CameraState::kAsCalibrated);
+  EXPECT_LT(w.change_deg(), 0.15f);
+  EXPECT_GT(w.confidence(), 0.9f);
+}
+
+TEST(PerspTurn, OneDegreeOfPitchIsEstimatedAndCorrected) {
+  PerspTurnWatch w;
+  w.Init(Camera(), PerspTurnConfig{});
+  Feed(w, Scene{1.0f, 0.0f}, 11);
+  EXPECT_EQ(w.state(), CameraState::kAsCalibrated) << "no verdict before 12 samples";
+  Feed(w, Scene{1.0f, 0.0f}, 40, 5);
+  EXPECT_EQ(w.state(), CameraState::kCorrected);
+  EXPECT_NEAR(w.pitch_rad() / kRad, 1.0f, 0.1f);
+  EXPECT_NEAR(w.yaw_rad() / kRad, 0.0f, 0.1f);
+  EXPECT_NEAR(w.change_deg(), 1.0f, 0.1f);
+  // The corrected model is the turned camera.
+  const PerspCalibration truth = Camera();
+  const Eigen::Matrix3f turned =
+      Eigen::AngleAxisf(1.0f * kRad, truth.R_robot_cam.col(0)).toRotationMatrix() *
+      truth.R_robot_cam;
+  const Eigen::Matrix3f diff = turned.transpose() * w.model().R_robot_cam;
+  EXPECT_LT(Eigen::AngleAxisf(diff).angle() / kRad, 0.1f);
+}
+
+TEST(PerspTurn, YawAndOutliersTooAndTheSizeDecidesTheState) {
+  struct Case {
+    Scene scene;
+    bool correct;
+    CameraState want;
+  };
+  const Case cases[] = {
+      {{0.6f, -0.8f, 1.5f, 0.25f}, true, CameraState::kCorrected},  // a quarter outliers
+      {{1.0f, 0.0f}, false, CameraState::kChanged},                 // correction off
+      {{4.0f, 0.0f}, true, CameraState::kChanged},                  // beyond correction
+      {{10.0f, 0.0f}, true, CameraState::kUnusable},                // the 10 degrees
+  };
+  for (const Case& c : cases) {
+    PerspTurnWatch w;
+    PerspTurnConfig config;
+    config.correct = c.correct;
+    w.Init(Camera(), config);
+    Feed(w, c.scene, 64);
+    EXPECT_EQ(w.state(), c.want) << c.scene.pitch_deg << " " << c.scene.yaw_deg;
+    const float want_deg = std::hypot(c.scene.pitch_deg, c.scene.yaw_deg);
+    EXPECT_NEAR(w.change_deg(), want_deg, 0.1f * want_deg + 0.05f);
+    if (c.want != CameraState::kCorrected) {
+      EXPECT_EQ(w.model().R_robot_cam, Camera().R_robot_cam) << "only a correction turns the model";
+    }
+  }
+}
+
+TEST(PerspTurn, ABallInTheAirIsNoFloorSample) {
+  PerspTurnWatch w;
+  w.Init(Camera(), PerspTurnConfig{});
+  Scene flying;
+  flying.height_m = 0.5f;  // the omni ray meets the floor plane far behind it
+  Feed(w, flying, 200);
+  EXPECT_EQ(w.samples(), 0);
+  EXPECT_EQ(w.state(), CameraState::kAsCalibrated);
+}
+
+TEST(PerspTurn, WithoutFloorSamplesNothingDriftsAndResetForgets) {
+  PerspTurnWatch w;
+  w.Init(Camera(), PerspTurnConfig{});
+  Feed(w, Scene{1.0f, 0.0f}, 40);
+  const float deg = w.change_deg();
+  // A ball in the air: the omni ray never comes down to the floor plane; too near, too far.
+  const PerspCalibration cal = Camera();
+  for (int i = 0; i < 50; ++i) {
+    w.AddFloorSample(Ray{{0, 0, 0.78f}, Eigen::Vector3f(0, 1, 0.2f).normalized()},
+                     Ray{cal.t_robot_cam, Eigen::Vector3f(0, 1, 0)}, 3.0f, kBallRadius);
+    w.AddFloorSample(Ray{{0, 0, 0.78f}, Eigen::Vector3f(0, 0.2f, -1).normalized()},
+                     Ray{cal.t_robot_cam, Eigen::Vector3f(0, 1, -1).normalized()}, 0.4f,
+                     kBallRadius);
+    w.AddFloorSample(Ray{{0, 0, 0.78f}, Eigen::Vector3f(0, 1, -0.01f).normalized()},
+                     Ray{cal.t_robot_cam, Eigen::Vector3f(0, 1, 0)}, 3.0f, kBallRadius);
+  }
+  EXPECT_EQ(w.change_deg(), deg);
+  EXPECT_EQ(w.state(), CameraState::kCorrected);
+  w.Reset();
+  EXPECT_EQ(w.state(), CameraState::kAsCalibrated);
+  EXPECT_EQ(w.samples(), 0);
+  EXPECT_EQ(w.model().R_robot_cam, Camera().R_robot_cam);
+}
+
+}  // namespace
+}  // namespace bv
