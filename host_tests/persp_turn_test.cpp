@@ -2,11 +2,19 @@
 // floor points seen through a camera turned after calibration, with ray noise and outliers.
 #include "core/health/persp_turn.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <memory>
 #include <random>
+#include <vector>
 
 #include <gtest/gtest.h>
+
 #include <Eigen/Geometry>
+#include "core/pipeline.h"
+#include "tools/ballvision/demo_scene.h"
+#include "tools/ballvision/run_common.h"
 
 namespace bv {
 namespace {
@@ -147,6 +155,85 @@ TEST(PerspTurn, WithoutFloorSamplesNothingDriftsAndResetForgets) {
   EXPECT_EQ(w.state(), CameraState::kAsCalibrated);
   EXPECT_EQ(w.samples(), 0);
   EXPECT_EQ(w.model().R_robot_cam, Camera().R_robot_cam);
+}
+
+// ---- The whole pipeline on frames drawn by the demo rig whose persp camera was turned after
+// calibration: the pipeline runs with the calibration, the frames come from the turned rig. ----
+
+struct RollResult {
+  int corrected_at = -1;  // first frame in state kCorrected
+  float last_deg = 0;
+  float median_err_m = 0;  // 3D error over the last third
+  bool ever_flagged = false;
+};
+
+// A ball rolling at 1.5 m/s across the persp camera's view, 3 s at 30 Hz.
+enum class Watch { kOff, kFlagOnly, kCorrect };
+
+RollResult Roll(float pitch_deg, Watch watch) {
+  const RigCalibration cal = cli::MakeDemoCalibration();
+  RigCalibration turned = cal;
+  turned.persp.R_robot_cam =
+      Eigen::AngleAxisf(pitch_deg * kRad, cal.persp.R_robot_cam.col(0)).toRotationMatrix() *
+      cal.persp.R_robot_cam;
+  const cli::DemoRenderer renderer(turned);
+  auto lut = std::make_unique<ColorLut>();
+  cli::FillBuiltInLut(*lut);
+  auto pipeline = std::make_unique<OwnedPipeline>();
+  PipelineConfig config;
+  config.persp_turn.enabled = watch != Watch::kOff;
+  config.persp_turn.correct = watch == Watch::kCorrect;
+  EXPECT_TRUE(pipeline->Init(cal, *lut, config).ok());
+  std::vector<uint8_t> omni, persp;
+  RollResult r;
+  std::vector<float> errs;
+  constexpr int kFrames = 90;
+  for (int k = 0; k < kFrames; ++k) {
+    const float t = static_cast<float>(k) / 30.f;
+    // Zig-zag across the view, 1.5-4 m ahead: the samples must be spread to fit pitch and yaw.
+    const Eigen::Vector3f ball(-1.2f + 2.4f * std::fabs(std::fmod(t * 0.6f, 2.f) - 1.f),
+                               1.5f + 0.85f * t, kBallRadius);
+    renderer.Render(ball, static_cast<uint32_t>(k + 1), omni, persp);
+    FrameInput in;
+    in.t_us = 1000000 + static_cast<uint64_t>(k) * 33333;
+    in.omni = MakeYuyvImage(omni.data(), 640, 480);
+    in.persp = MakeYuyvImage(persp.data(), 640, 480);
+    BallState s;
+    EXPECT_TRUE(pipeline->Process(in, s).ok());
+    r.ever_flagged |= s.persp_check.state != CameraState::kAsCalibrated;
+    if (s.persp_check.state == CameraState::kCorrected && r.corrected_at < 0) r.corrected_at = k;
+    r.last_deg = s.persp_check.change_deg;
+    if (k >= 2 * kFrames / 3 && s.found) {
+      errs.push_back((Eigen::Vector3f(s.x_m, s.y_m, s.z_m) - ball).norm());
+    }
+  }
+  EXPECT_GE(errs.size(), 25u);
+  std::sort(errs.begin(), errs.end());
+  r.median_err_m = errs.empty() ? 1e9f : errs[errs.size() / 2];
+  std::printf(
+      "persp pitched %.1f deg, watch %s: corrected at frame %d, estimate %.2f deg, "
+      "3D error over the last second %.1f cm (median)\n",
+      pitch_deg,
+      watch == Watch::kOff        ? "off"
+      : watch == Watch::kFlagOnly ? "flag only"
+                                  : "on",
+      r.corrected_at, r.last_deg, 100.f * r.median_err_m);
+  return r;
+}
+
+TEST(PerspTurnPipeline, AOneDegreePitchIsCorrectedWithinTwoSecondsAndTheBallComesBack) {
+  const RollResult unchanged = Roll(0.0f, Watch::kCorrect);
+  EXPECT_FALSE(unchanged.ever_flagged);
+  EXPECT_LT(unchanged.last_deg, 0.2f);
+  const RollResult on = Roll(1.0f, Watch::kCorrect);
+  const RollResult flagged = Roll(1.0f, Watch::kFlagOnly);  // down-weighted: the omni carries it
+  const RollResult off = Roll(1.0f, Watch::kOff);
+  EXPECT_GE(on.corrected_at, 0);
+  EXPECT_LE(on.corrected_at, 60);
+  EXPECT_NEAR(on.last_deg, 1.0f, 0.2f);
+  EXPECT_LT(on.median_err_m, 1.5f * unchanged.median_err_m + 0.005f);
+  EXPECT_LT(flagged.median_err_m, 1.5f * unchanged.median_err_m + 0.005f);
+  EXPECT_GT(off.median_err_m, 2.0f * on.median_err_m);
 }
 
 }  // namespace
