@@ -736,6 +736,12 @@ void Pipeline::WatchPerspTurn(const CameraRays& rays, BallState& out) {
   }
   out.persp_check.change_deg = persp_turn_.change_deg();
   out.persp_check.confidence = persp_turn_.confidence();
+  const CameraState omni = persp_turn_.omni_state();
+  if (static_cast<uint8_t>(omni) > static_cast<uint8_t>(out.omni_check.state)) {
+    out.omni_check.state = omni;
+  }
+  out.omni_check.change_deg = persp_turn_.omni_change_deg();
+  out.omni_check.confidence = persp_turn_.omni_confidence();
 }
 
 void Pipeline::Lap(PipelineStage done) {
@@ -960,6 +966,11 @@ void Pipeline::BuildObservation(const CameraRays& rays, BallState& out, BallObse
     const float cut_px = rays.omni_cut ? 0.5f * out.omni.radius_px : 0.f;
     OmniRaySigma(cal.omni, out.omni, rays.omni, cut_px + hidden_px,
                  cut_px + kHiddenCentroidPerMissingRadius * hidden_px, config_, omni_ray);
+    if (persp_turn_.omni_state() == CameraState::kChanged) {  // a knocked mirror: down-weighted
+      const float change_rad = persp_turn_.omni_change_deg() / 57.29578f;
+      omni_ray.sigma_v_rad = std::hypot(omni_ray.sigma_v_rad, change_rad);
+      omni_ray.bias_v_rad = std::hypot(omni_ray.bias_v_rad, change_rad);
+    }
   }
   if (have_p) {
     persp_ray.origin = rays.persp.origin;

@@ -40,6 +40,7 @@ struct Scene {
   float noise_mrad = 1.5f;           // per ray, both cameras
   float outliers = 0;                // share of samples with a wrong omni point (another object)
   float height_m = kBallRadius;      // the ball's centre: above the radius, it is in the air
+  float omni_elevation_deg = 0;      // a knocked mirror: the omni rays' elevation error
 };
 
 // Feeds n floor samples; returns the watch.
@@ -61,6 +62,10 @@ void Feed(PerspTurnWatch& w, const Scene& s, int n, uint32_t seed = 3) {
     // An outlier: the omni camera's region is something else beside the ball (same range).
     if (u01(rng) < s.outliers) omni.dir = (p + Eigen::Vector3f(0.3f, 0, 0) - mirror).normalized();
     omni.dir = (omni.dir + Eigen::Vector3f(noise(rng), noise(rng), noise(rng))).normalized();
+    if (s.omni_elevation_deg != 0) {
+      const Eigen::Vector3f axis = Eigen::Vector3f::UnitZ().cross(omni.dir).normalized();
+      omni.dir = Eigen::AngleAxisf(s.omni_elevation_deg * kRad, axis) * omni.dir;
+    }
     Ray persp{cal.t_robot_cam, turn.transpose() * (p - cal.t_robot_cam).normalized()};
     persp.dir = (persp.dir + Eigen::Vector3f(noise(rng), noise(rng), noise(rng))).normalized();
     const float size_range = (p - cal.t_robot_cam).norm() * (1.0f + size_noise(rng));
@@ -121,6 +126,23 @@ TEST(PerspTurn, YawAndOutliersTooAndTheSizeDecidesTheState) {
       EXPECT_EQ(w.model().R_robot_cam, Camera().R_robot_cam) << "only a correction turns the model";
     }
   }
+}
+
+TEST(PerspTurn, AKnockedMirrorFlagsTheOmniCameraAndDoesNotTurnThePersp) {
+  PerspTurnWatch w;
+  w.Init(Camera(), PerspTurnConfig{});
+  Scene knocked;
+  knocked.omni_elevation_deg = 3.0f;  // rays 3 deg up: floor points far too far
+  Feed(w, knocked, 64);
+  EXPECT_EQ(w.omni_state(), CameraState::kChanged);
+  EXPECT_NEAR(w.omni_change_deg(), 3.0f, 0.5f);
+  EXPECT_EQ(w.state(), CameraState::kAsCalibrated);
+  // A turned persp camera is not a knocked mirror: its size's range does not move.
+  PerspTurnWatch turned;
+  turned.Init(Camera(), PerspTurnConfig{});
+  Feed(turned, Scene{1.0f, 0.0f}, 64);
+  EXPECT_EQ(turned.omni_state(), CameraState::kAsCalibrated);
+  EXPECT_EQ(turned.state(), CameraState::kCorrected);
 }
 
 TEST(PerspTurn, ABallInTheAirIsNoFloorSample) {

@@ -9,6 +9,7 @@ namespace bv {
 namespace {
 
 constexpr float kDegPerRad = 57.29578f;
+constexpr float kTwoPi = 6.2831853f;
 
 // Median of v[0..n) (reorders v; n small): insertion sort.
 float Median(float* v, int n) {
@@ -32,7 +33,10 @@ void PerspTurnWatch::Init(const PerspCalibration& persp, const PerspTurnConfig& 
 
 void PerspTurnWatch::Reset() {
   count_ = next_ = 0;
-  last_point_ = Eigen::Vector3f::Constant(1e9f);
+  omni_count_ = omni_next_ = 0;
+  omni_change_deg_ = omni_confidence_ = 0;
+  omni_state_ = CameraState::kAsCalibrated;
+  last_point_ = last_omni_point_ = Eigen::Vector3f::Constant(1e9f);
   pitch_rad_ = yaw_rad_ = change_deg_ = confidence_ = 0;
   state_ = CameraState::kAsCalibrated;
   model_ = calibrated_;
@@ -48,6 +52,9 @@ void PerspTurnWatch::AddFloorSample(const Ray& omni, const Ray& persp, float siz
   const Eigen::Vector3f to_p = p - persp.origin;
   const float range = std::hypot(to_p.x(), to_p.y());
   if (!(range >= config_.min_range_m && range <= config_.max_range_m)) return;
+  AddOmniSample(omni, persp, p, size_range_m, ball_radius_m);
+  // A knocked mirror moves P: the persp camera is not to be turned after it.
+  if (omni_state_ != CameraState::kAsCalibrated) return;
   if (!(std::fabs(to_p.norm() / size_range_m - 1.0f) <= config_.floor_size_gate)) return;
   const Eigen::Vector3f d = persp.dir.normalized();
   if (!d.allFinite() || (p - last_point_).norm() < config_.min_spacing_m) return;
@@ -80,6 +87,37 @@ bool PerspTurnWatch::Fit(float& pitch, float& yaw) const {
   pitch = (bb * ae - ab * be) / det;
   yaw = (aa * be - ab * ae) / det;
   return std::isfinite(pitch) && std::isfinite(yaw);
+}
+
+void PerspTurnWatch::AddOmniSample(const Ray& omni, const Ray& persp, const Eigen::Vector3f& p,
+                                   float size_range_m, float ball_radius_m) {
+  if (!(size_range_m > 0.0f)) return;
+  const Eigen::Vector3f q = persp.origin + size_range_m * persp.dir.normalized();
+  if (!(std::fabs(q.z() - ball_radius_m) <= config_.omni_floor_z_m)) return;
+  if ((q - last_omni_point_).norm() < config_.min_spacing_m) return;
+  const Eigen::Vector3f from_c = p - persp.origin;
+  const float azimuth_gap = std::fabs(std::remainder(
+      std::atan2(from_c.y(), from_c.x()) - std::atan2(persp.dir.y(), persp.dir.x()), kTwoPi));
+  if (!(azimuth_gap * kDegPerRad <= config_.omni_azimuth_gate_deg)) return;
+  last_omni_point_ = q;
+  const Eigen::Vector3f to_q = q - omni.origin, to_p = p - omni.origin;
+  omni_ratio_[omni_next_] = (p - persp.origin).norm() / size_range_m - 1.0f;
+  omni_elev_[omni_next_] = std::atan2(to_p.z(), std::hypot(to_p.x(), to_p.y())) -
+                           std::atan2(to_q.z(), std::hypot(to_q.x(), to_q.y()));
+  omni_next_ = (omni_next_ + 1) % kWindow;
+  if (omni_count_ < kWindow) ++omni_count_;
+  if (omni_count_ < config_.min_samples) return;
+  float ratios[kWindow], elevs[kWindow];
+  for (int i = 0; i < omni_count_; ++i) ratios[i] = omni_ratio_[i], elevs[i] = omni_elev_[i];
+  const float ratio = Median(ratios, omni_count_);
+  omni_change_deg_ = std::fabs(Median(elevs, omni_count_)) * kDegPerRad;
+  int agree = 0;
+  for (int i = 0; i < omni_count_; ++i) agree += std::fabs(omni_ratio_[i] - ratio) <= 0.05f;
+  omni_confidence_ = static_cast<float>(agree) / static_cast<float>(omni_count_);
+  // Flagged beyond the gate, cleared below 0.6 of it.
+  const float gate = omni_state_ == CameraState::kAsCalibrated ? config_.omni_range_gate
+                                                               : 0.6f * config_.omni_range_gate;
+  omni_state_ = std::fabs(ratio) > gate ? CameraState::kChanged : CameraState::kAsCalibrated;
 }
 
 void PerspTurnWatch::Decide() {

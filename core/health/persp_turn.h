@@ -32,6 +32,15 @@ struct PerspTurnConfig {
   // the omni floor point's this well: a ball 5 cm up at 3 m passes (its sample errs by 0.2 deg,
   // within trim_deg), one 20 cm up lands 40 % farther. Pitch does not move the size's range.
   float floor_size_gate = 0.08f;
+  // The omni camera's side of the same comparison (a knocked mirror): a ball the persp camera
+  // alone puts on the floor (its ray at its size's range, within omni_floor_z_m of the radius)
+  // whose omni floor point's range is off by more than omni_range_gate in the median of the
+  // window flags the omni camera kChanged. A persp turn does not move the size's range.
+  float omni_floor_z_m = 0.1f;
+  float omni_range_gate = 0.12f;
+  // The same ball, not a decoy elsewhere: its omni floor point near the persp ray's azimuth (a
+  // wrong floor range moves it by a few degrees: the persp camera sits 0.1 m ahead of the axis).
+  float omni_azimuth_gate_deg = 6.0f;
 };
 
 class PerspTurnWatch {
@@ -56,6 +65,11 @@ class PerspTurnWatch {
   /// 0..1: the fraction of the window's samples within trim_deg of the fit.
   float confidence() const { return confidence_; }
   int samples() const { return count_; }
+  /// The omni camera, from the same samples: kAsCalibrated or kChanged (its floor ranges disagree
+  /// with the persp sizes'), the median elevation error of its rays (degrees), its confidence.
+  CameraState omni_state() const { return omni_state_; }
+  float omni_change_deg() const { return omni_change_deg_; }
+  float omni_confidence() const { return omni_confidence_; }
   /// The camera model the pipeline should use: the calibrated one turned by the estimate while
   /// the state is kCorrected, else the calibrated one.
   const PerspCalibration& model() const { return model_; }
@@ -71,8 +85,16 @@ class PerspTurnWatch {
   Eigen::Vector3f ray_[kWindow], target_[kWindow];
   int count_ = 0, next_ = 0;
   Eigen::Vector3f last_point_ = Eigen::Vector3f::Constant(1e9f);
+  Eigen::Vector3f last_omni_point_ = Eigen::Vector3f::Constant(1e9f);
   float pitch_rad_ = 0, yaw_rad_ = 0, change_deg_ = 0, confidence_ = 0;
   CameraState state_ = CameraState::kAsCalibrated;
+  // The omni side: ring of (floor range / size range - 1) and elevation errors (rad).
+  float omni_ratio_[kWindow] = {}, omni_elev_[kWindow] = {};
+  int omni_count_ = 0, omni_next_ = 0;
+  float omni_change_deg_ = 0, omni_confidence_ = 0;
+  CameraState omni_state_ = CameraState::kAsCalibrated;
+  void AddOmniSample(const Ray& omni, const Ray& persp, const Eigen::Vector3f& p,
+                     float size_range_m, float ball_radius_m);
 };
 
 }  // namespace bv
