@@ -163,13 +163,14 @@ struct StateStreams {
           "status seq %5u up %8.3f s  frames %6u  %.1f Hz  dropped %u  overruns %u  "
           "pkts dropped %u  calib %s lut %s  proc %u us (max %u)  rx lost: overrun "
           "%u ring-full %u line %u\n"
-          "       cameras: omni %s, persp %s  (unusable pairs %u / %u)\n",
+          "       cameras: omni %s (%.2f deg), persp %s (%.2f deg)  (unusable pairs %u / %u)\n",
           f.seq, st.uptime_us * 1e-6, st.frames_processed, st.frame_rate_mhz / 1000.0,
           st.frames_dropped, st.deadline_overruns, st.packets_dropped,
           st.calibration_state == 0 ? "ok" : "MISSING/CORRUPT",
           st.lut_state == 0 ? "ok" : "MISSING/CORRUPT", st.last_proc_us, st.max_proc_us,
           st.rx_overruns, st.rx_ring_full, st.rx_line_errors,
-          CameraCheckText(st.check_omni).c_str(), CameraCheckText(st.check_persp).c_str(),
+          CameraCheckText(st.check_omni).c_str(), st.change_omni_cdeg / 100.0,
+          CameraCheckText(st.check_persp).c_str(), st.change_persp_cdeg / 100.0,
           st.pairs_omni_unusable, st.pairs_persp_unusable);
     }
     return true;

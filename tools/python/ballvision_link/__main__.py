@@ -204,8 +204,9 @@ class _Listener:
                       f"rx lost: uart overrun {msg.rx_overruns}, ring full {msg.rx_ring_full}, "
                       f"line errors {msg.rx_line_errors}, feature packets dropped "
                       f"{msg.feature_packets_dropped}, line points unsent {msg.line_points_unsent}; "
-                      f"cameras: omni {camera_check_text(msg.check_omni)}, persp "
-                      f"{camera_check_text(msg.check_persp)}")
+                      f"cameras: omni {camera_check_text(msg.check_omni)} "
+                      f"({msg.change_omni_deg:.2f} deg), persp {camera_check_text(msg.check_persp)} "
+                      f"({msg.change_persp_deg:.2f} deg)")
         else:
             self.others += 1
 

@@ -339,8 +339,12 @@ class LiveLink:
 
 def _status_dict(st):
     d = dict(st.__dict__)
-    d["omni_camera"] = camera_check_text(st.check_omni)
-    d["persp_camera"] = camera_check_text(st.check_persp)
+    for cam in ("omni", "persp"):
+        text = camera_check_text(getattr(st, "check_" + cam))
+        change, conf = getattr(st, "change_" + cam + "_deg"), getattr(st, "confidence_" + cam)
+        if change > 0:
+            text += f", changed {change:.2f}° (confidence {conf:.0%})"
+        d[cam + "_camera"] = text
     return d
 
 
