@@ -730,18 +730,15 @@ void Pipeline::WatchPerspTurn(const CameraRays& rays, BallState& out) {
       persp_turn_.AddFloorSample(rays.omni, *raw, size_range, calibration_->ball_radius_m);
     }
   }
-  const CameraState turn = persp_turn_.state();
-  if (static_cast<uint8_t>(turn) > static_cast<uint8_t>(out.persp_check.state)) {
-    out.persp_check.state = turn;
-  }
-  out.persp_check.change_deg = persp_turn_.change_deg();
-  out.persp_check.confidence = persp_turn_.confidence();
-  const CameraState omni = persp_turn_.omni_state();
-  if (static_cast<uint8_t>(omni) > static_cast<uint8_t>(out.omni_check.state)) {
-    out.omni_check.state = omni;
-  }
-  out.omni_check.change_deg = persp_turn_.omni_change_deg();
-  out.omni_check.confidence = persp_turn_.omni_confidence();
+  // The worse of the frame watch's state and the geometry's.
+  auto join = [](CameraCheck& c, CameraState state, float change_deg, float confidence) {
+    if (static_cast<uint8_t>(state) > static_cast<uint8_t>(c.state)) c.state = state;
+    c.change_deg = change_deg;
+    c.confidence = confidence;
+  };
+  join(out.persp_check, persp_turn_.state(), persp_turn_.change_deg(), persp_turn_.confidence());
+  join(out.omni_check, persp_turn_.omni_state(), persp_turn_.omni_change_deg(),
+       persp_turn_.omni_confidence());
 }
 
 void Pipeline::Lap(PipelineStage done) {
@@ -886,7 +883,7 @@ void Pipeline::PerspRayNoiseAndRange(const BallDetection& det, const Ray& ray, b
   out.bias_h_rad = out.bias_v_rad =
       (config_.persp_bias_px + shape_px + (kHiddenCentroidPerMissingRadius - 1.f) * hidden_px) / fx;
   if (persp_turn_.state() == CameraState::kChanged) {  // turned, not corrected: down-weighted
-    const float turn_rad = persp_turn_.change_deg() / 57.29578f;
+    const float turn_rad = persp_turn_.change_deg() * kPi / 180.0f;
     out.sigma_h_rad = out.sigma_v_rad = std::hypot(out.sigma_h_rad, turn_rad);
     out.bias_h_rad = out.bias_v_rad = std::hypot(out.bias_h_rad, turn_rad);
   }
@@ -967,7 +964,7 @@ void Pipeline::BuildObservation(const CameraRays& rays, BallState& out, BallObse
     OmniRaySigma(cal.omni, out.omni, rays.omni, cut_px + hidden_px,
                  cut_px + kHiddenCentroidPerMissingRadius * hidden_px, config_, omni_ray);
     if (persp_turn_.omni_state() == CameraState::kChanged) {  // a knocked mirror: down-weighted
-      const float change_rad = persp_turn_.omni_change_deg() / 57.29578f;
+      const float change_rad = persp_turn_.omni_change_deg() * kPi / 180.0f;
       omni_ray.sigma_v_rad = std::hypot(omni_ray.sigma_v_rad, change_rad);
       omni_ray.bias_v_rad = std::hypot(omni_ray.bias_v_rad, change_rad);
     }

@@ -52,7 +52,7 @@ void PerspTurnWatch::AddFloorSample(const Ray& omni, const Ray& persp, float siz
   const Eigen::Vector3f to_p = p - persp.origin;
   const float range = std::hypot(to_p.x(), to_p.y());
   if (!(range >= config_.min_range_m && range <= config_.max_range_m)) return;
-  AddOmniSample(omni, persp, p, size_range_m, ball_radius_m);
+  AddOmniSample(omni, persp, p, to_p, size_range_m, ball_radius_m);
   // A knocked mirror moves P: the persp camera is not to be turned after it.
   if (omni_state_ != CameraState::kAsCalibrated) return;
   if (!(std::fabs(to_p.norm() / size_range_m - 1.0f) <= config_.floor_size_gate)) return;
@@ -90,18 +90,19 @@ bool PerspTurnWatch::Fit(float& pitch, float& yaw) const {
 }
 
 void PerspTurnWatch::AddOmniSample(const Ray& omni, const Ray& persp, const Eigen::Vector3f& p,
-                                   float size_range_m, float ball_radius_m) {
+                                   const Eigen::Vector3f& to_p_from_persp, float size_range_m,
+                                   float ball_radius_m) {
   if (!(size_range_m > 0.0f)) return;
   const Eigen::Vector3f q = persp.origin + size_range_m * persp.dir.normalized();
   if (!(std::fabs(q.z() - ball_radius_m) <= config_.omni_floor_z_m)) return;
   if ((q - last_omni_point_).norm() < config_.min_spacing_m) return;
-  const Eigen::Vector3f from_c = p - persp.origin;
+  const Eigen::Vector3f& from_c = to_p_from_persp;
   const float azimuth_gap = std::fabs(std::remainder(
       std::atan2(from_c.y(), from_c.x()) - std::atan2(persp.dir.y(), persp.dir.x()), kTwoPi));
   if (!(azimuth_gap * kDegPerRad <= config_.omni_azimuth_gate_deg)) return;
   last_omni_point_ = q;
   const Eigen::Vector3f to_q = q - omni.origin, to_p = p - omni.origin;
-  omni_ratio_[omni_next_] = (p - persp.origin).norm() / size_range_m - 1.0f;
+  omni_ratio_[omni_next_] = from_c.norm() / size_range_m - 1.0f;
   omni_elev_[omni_next_] = std::atan2(to_p.z(), std::hypot(to_p.x(), to_p.y())) -
                            std::atan2(to_q.z(), std::hypot(to_q.x(), to_q.y()));
   omni_next_ = (omni_next_ + 1) % kWindow;

@@ -94,7 +94,8 @@ class PerspTurnWatch {
   float omni_change_deg_ = 0, omni_confidence_ = 0;
   CameraState omni_state_ = CameraState::kAsCalibrated;
   void AddOmniSample(const Ray& omni, const Ray& persp, const Eigen::Vector3f& p,
-                     float size_range_m, float ball_radius_m);
+                     const Eigen::Vector3f& to_p_from_persp, float size_range_m,
+                     float ball_radius_m);
 };
 
 }  // namespace bv
