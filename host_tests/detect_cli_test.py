@@ -182,6 +182,21 @@ class Boxes(Base):
         self.assertEqual((e["images"], e["countable"], e["found"], e["false_images"]),
                          (1, 1, 1, 0))
 
+    def test_more_boxes_add_to_the_images_of_the_box_file_only(self):
+        with open(self.p("more.txt"), "w") as f:
+            f.write("# a second ball\nball_200x160.jpg 0 ball 150 10 170 30\n")
+        r = self.bv("detect-eval", "--boxes", self.p("boxes.txt"), "--more-boxes",
+                    self.p("more.txt"), "--images", self.p("img"), "--protocol", "builtin",
+                    "--json", self.p("e.json"))
+        self.assertEqual(r.returncode, 0, r.stderr)
+        e = json.loads(read(self.p("e.json"), "r"))["builtin"]["pooled"]
+        self.assertEqual((e["images"], e["found"], e["false_images"]), (1, 1, 0))
+        with open(self.p("more.txt"), "w") as f:
+            f.write("\nother.jpg 0 ball 1 1 9 9\n")
+        self.refused(["detect-eval", "--boxes", self.p("boxes.txt"), "--more-boxes",
+                      self.p("more.txt"), "--images", self.p("img"), "--protocol", "builtin"], 1,
+                     "more.txt:2: image other.jpg is not in the box file it adds to")
+
     def test_teach_writes_the_table_and_its_profile_or_says_why_not(self):
         r = self.bv("lut", "teach", "--boxes", self.p("boxes.txt"), "--images", self.p("img"),
                     "--out", self.p("t.lut"))

@@ -14,13 +14,13 @@ Status BallFinder::Init(const ScanlineTableBase& scanlines, const BallFinderConf
       !(config.min_roundness >= 0.0f && config.min_roundness <= 1.0f) ||
       !(config.min_hull_roundness >= 0.0f && config.min_hull_roundness <= 1.0f) ||
       !(config.min_width_ratio >= 0.0f && config.min_width_ratio <= 1.0f) ||
-      !(config.min_area_px >= 1.0f) || config.prng_seed == 0 || config.min_arc_sectors < 1 ||
-      config.min_arc_sectors > kCircleSectors || config.min_arc_sectors_sized < 1 ||
-      config.min_arc_sectors_sized > kCircleSectors) {
+      !(config.min_area_px >= 1.0f) || !(config.min_cut_area_px >= 0.0f) || config.prng_seed == 0 ||
+      config.min_arc_sectors < 1 || config.min_arc_sectors > kCircleSectors ||
+      config.min_arc_sectors_sized < 1 || config.min_arc_sectors_sized > kCircleSectors) {
     return Status(
         StatusCode::kInvalidArgument,
         "BallFinder::Init: attention_samples > 256, a roundness or width ratio outside 0..1, "
-        "min_area < 1, prng_seed 0 or min_arc_sectors outside 1..16");
+        "min_area < 1, min_cut_area < 0, prng_seed 0 or min_arc_sectors outside 1..16");
   }
   scan_ = &scanlines;
   config_ = config;
@@ -54,6 +54,12 @@ float FieldContext(const YuyvImage& image, const ColorLut& lut, const Region& r)
 }  // namespace
 
 // The shape test, then the field test (in reject mode an outside region fails).
+namespace {
+bool CutByBorder(const Region& r, int width, int height) {
+  return r.u_min <= 0 || r.v_min <= 0 || r.u_max >= width - 1 || r.v_max >= height - 1;
+}
+}  // namespace
+
 bool BallFinder::Passes(const Region& r, bool& in_field) const {
   in_field = true;
   const bool clean = r.roundness >= config_.min_roundness;
@@ -61,6 +67,9 @@ bool BallFinder::Passes(const Region& r, bool& in_field) const {
       r.hull_roundness >= config_.min_hull_roundness && r.width_ratio >= config_.min_width_ratio;
   const bool circle = r.arc_sectors > 0;
   if (r.area_px < config_.min_area_px || !(clean || compact || circle)) return false;
+  if (r.area_px < config_.min_cut_area_px && CutByBorder(r, scan_->width(), scan_->height())) {
+    return false;
+  }
   in_field = config_.field == nullptr ||
              config_.field->Inside(r.cu_px, r.cv_px, std::sqrt(r.area_px / 3.14159265f));
   return in_field || !reject_outside_;
@@ -182,8 +191,7 @@ void BallFinder::FitCircles(const Prediction* prediction, int image_width, int i
   for (size_t i = 0; i < regions.size() && fits < kMaxCircleFits; ++i) {
     const Region& r = regions[i];
     // Cut by the image border: the centroid is the visible cap's, however clean its outline.
-    const bool at_border =
-        r.u_min <= 0 || r.v_min <= 0 || r.u_max >= image_width - 1 || r.v_max >= image_height - 1;
+    const bool at_border = CutByBorder(r, image_width, image_height);
     if (r.hole || r.area_px < config_.min_area_px ||
         (!at_border && r.hull_roundness >= kCleanHull && r.width_ratio >= kCleanWidth)) {
       continue;

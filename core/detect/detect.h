@@ -62,7 +62,10 @@ struct BallFinderConfig {
   float min_roundness = 0.35f;
   float min_hull_roundness = 0.6f;
   float min_width_ratio = 0.5f;
-  float min_area_px = 10.0f;   // a 4 px disc covers ~12 px; smaller regions are not kept
+  float min_area_px = 10.0f;  // a 4 px disc covers ~12 px; smaller regions are not kept
+  // A region cut by the image border must show at least a whole smallest ball (8 px across, the
+  // persp scan's): below that, its shape cannot be judged (a lens-corner speck, a lamp's edge).
+  float min_cut_area_px = 50.0f;
   int attention_samples = 64;  // N <= kMaxAttentionSamples
   uint32_t prng_seed = 0x2545F491u;
   const FieldPredicate* field = nullptr;  // optional; must outlive the finder

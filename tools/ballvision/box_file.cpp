@@ -94,6 +94,26 @@ bool LoadAnnotations(const std::string& file, const std::string& image_dir,
   return true;
 }
 
+bool AddAnnotations(const std::string& file, std::vector<AnnotatedImage>& images,
+                    std::string& error) {
+  std::vector<AnnotatedImage> more;
+  if (!LoadAnnotations(file, "", more, error)) return false;
+  std::map<std::string, size_t> pos;
+  for (size_t i = 0; i < images.size(); ++i) pos[images[i].name] = i;
+  for (const AnnotatedImage& m : more) {
+    if (!pos.count(m.name)) {
+      error = file + ":" + std::to_string(m.line) + ": image " + m.name +
+              " is not in the box file it adds to";
+      return false;
+    }
+  }
+  for (const AnnotatedImage& m : more) {
+    std::vector<AnnotatedBox>& to = images[pos[m.name]].boxes;
+    to.insert(to.end(), m.boxes.begin(), m.boxes.end());
+  }
+  return true;
+}
+
 bool CheckBoxesInside(const std::string& file, const AnnotatedImage& image, int width, int height,
                       std::string& error) {
   for (const AnnotatedBox& b : image.boxes) {

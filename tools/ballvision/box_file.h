@@ -30,6 +30,12 @@ struct AnnotatedImage {
 bool LoadAnnotations(const std::string& file, const std::string& image_dir,
                      std::vector<AnnotatedImage>& out, std::string& error);
 
+/// Adds the boxes of `file` (a box file of the same format: boxes the first file lacks) to the
+/// images of `images`. False with `error` for what LoadAnnotations refuses, or for an image that
+/// `images` does not hold (file, line, image); `images` is unchanged then.
+bool AddAnnotations(const std::string& file, std::vector<AnnotatedImage>& images,
+                    std::string& error);
+
 /// False with `error` (file, line, box) when a box lies outside a width x height image by more
 /// than one pixel.
 bool CheckBoxesInside(const std::string& file, const AnnotatedImage& image, int width, int height,

@@ -54,6 +54,7 @@ constexpr char kEvalUsage[] =
     "                              [--ball red|orange|yellow] [--classifier FILE|builtin|off]\n"
     "                              [--sets PREFIX[,PREFIX...]] [--verbose] [--json OUT]\n"
     "                              [--candidates CSV]  (every candidate's features, labelled)\n"
+    "                              [--more-boxes FILE]  (boxes the first file lacks, same format)\n"
     "       ballvision detect-eval --sim SEQ [--lut FILE|builtin] [--ball NAME] [--calib CALIB]\n"
     "                              [--classifier FILE|builtin|off] [--candidates CSV]\n"
     "  (a rendered sequence's persp frames against its truth.csv)\n"
@@ -607,7 +608,7 @@ bool RunProtocol(EvalContext& ctx, const std::string& proto, const std::string& 
 
 struct EvalArgs {
   std::string boxes, images_dir, protocol = "all", ball = "yellow", classifier, sets, json;
-  std::string candidates, sim, lut = "builtin", calib;
+  std::string candidates, sim, lut = "builtin", calib, more_boxes;
   bool verbose = false;
 };
 
@@ -619,6 +620,7 @@ int BoxEval(const EvalArgs& a) {
   FloorBallProfile no_profile;
   const bool ok = (a.json.empty() || CheckOutputPath(a.json, error)) &&
                   LoadAnnotations(a.boxes, a.images_dir, all, error) &&
+                  (a.more_boxes.empty() || AddAnnotations(a.more_boxes, all, error)) &&
                   LoadClassifier(a.classifier, classifier, error) &&
                   LoadTable("builtin", a.ball, builtin, no_profile, error);
   const ImageSets sets = ok ? GroupSets(all, a.sets) : ImageSets{};
@@ -628,7 +630,8 @@ int BoxEval(const EvalArgs& a) {
     return 1;
   }
   InstallInterruptHandlers();
-  EvalContext ctx{a.boxes, &classifier, a.verbose};
+  EvalContext ctx{a.more_boxes.empty() ? a.boxes : a.boxes + " (+ " + a.more_boxes + ")",
+                  &classifier, a.verbose};
   SafeOutput cand;
   if (!a.candidates.empty()) {
     if (!cand.Open(a.candidates, error)) {
@@ -675,6 +678,7 @@ int DetectEval(int argc, char** argv) {
   EvalArgs a;
   ArgParser p("ballvision detect-eval", kEvalUsage);
   p.Text("--boxes", a.boxes)
+      .Text("--more-boxes", a.more_boxes)
       .Text("--images", a.images_dir)
       .Text("--protocol", a.protocol)
       .Text("--ball", a.ball)
@@ -688,7 +692,7 @@ int DetectEval(int argc, char** argv) {
       .Flag("--verbose", a.verbose);
   if (const int rc = p.Parse(argc, argv); rc >= 0) return rc;
   if (!a.sim.empty()) {
-    if (!a.boxes.empty()) {
+    if (!a.boxes.empty() || !a.more_boxes.empty()) {
       return p.UsageError("give --sim SEQ or --boxes FILE --images DIR, not both");
     }
     BallClassifier c;

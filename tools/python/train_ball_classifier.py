@@ -79,16 +79,46 @@ def load(paths):
             np.array(prior))
 
 
-def train(X, y):
+ALPHAS = (3.0, 10.0, 30.0, 100.0, 300.0, 1000.0)  # L2 weights tried
+
+
+def fit(X, y, alpha):
     from sklearn.neural_network import MLPClassifier
     mean = X.mean(0)
     sd = X.std(0)
     sd[sd < 1e-6] = 1.0
-    Z = (X - mean) / sd
     m = MLPClassifier(hidden_layer_sizes=(HIDDEN,), activation="relu", solver="lbfgs",
-                      alpha=1.0, max_iter=4000, random_state=0)
-    m.fit(Z, y)
+                      alpha=alpha, max_iter=4000, random_state=0)
+    m.fit((X - mean) / sd, y)
     return mean, sd, m
+
+
+def choose_alpha(X, y, sets, image, prior):
+    """The L2 weight by the task's own score, leave-one-set-out over the training sets only (each
+    real date_robot set and the renders one group; a venue left out for figures never sees it):
+    images whose first ball is right minus images whose first ball is wrong."""
+    best = None
+    for alpha in ALPHAS:
+        score = 0
+        for s in sorted(set(sets)):
+            te = np.where(sets == s)[0]
+            tr = sets != s
+            if y[tr].min() == y[tr].max():
+                continue
+            mean, sd, m = fit(X[tr], y[tr], alpha)
+            lg = m.predict_proba((X[te] - mean) / sd)[:, 1]
+            sc = np.where(lg > 0.5, prior[te] * lg, -1.0)
+            f, _, fa, _ = image_figures([image[i] for i in te], y[te], sc)
+            score += f - fa
+        if best is None or score > best[1]:
+            best = (alpha, score)
+    return best[0]
+
+
+def train(X, y, sets, image, prior):
+    alpha = choose_alpha(X, y, sets, image, prior)
+    mean, sd, m = fit(X, y, alpha)
+    return mean, sd, m, alpha
 
 
 def quantise(mean, sd, m, X):
@@ -175,12 +205,12 @@ def compact(paths, out):
     return len(lines) - 1
 
 
-def extract_real(ballvision, shared, out):
+def extract_real(ballvision, shared, more_boxes, out):
     import subprocess
     d = os.path.join(shared, "msl_robocup_ml")
     raw = out + ".raw"
     cmd = [ballvision, "detect-eval", "--boxes", os.path.join(d, "annotations_px.txt"),
-           "--images", os.path.join(d, "images"), "--protocol", "all", "--classifier", "off",
+           "--more-boxes", more_boxes, "--images", os.path.join(d, "images"), "--protocol", "all", "--classifier", "off",
            "--candidates", raw]
     r = subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     if r.returncode != 0:
@@ -223,6 +253,9 @@ def main():
     ap.add_argument("--sim-table", default=os.path.join(
         os.path.dirname(os.path.abspath(__file__)), "..", "..", "host_tests", "data",
         "ball_classifier", "candidates_sim.csv.gz"))
+    ap.add_argument("--more-boxes", default=os.path.join(
+        os.path.dirname(os.path.abspath(__file__)), "..", "..", "host_tests", "data",
+        "msl_more_boxes", "unlabelled_balls.txt"), help="balls the dataset's boxes leave out")
     ap.add_argument("--out-dir")
     ap.add_argument("--threshold", type=float, default=0.0, help="logit above which: a ball")
     ap.add_argument("--report", action="store_true", help="leave-one-venue-out figures")
@@ -236,12 +269,14 @@ def main():
         ap.error("--ballvision, --shared and --out-dir are needed")
     os.makedirs(a.out_dir, exist_ok=True)
     real = os.path.join(a.out_dir, "candidates_real.csv.gz")
-    extract_real(a.ballvision, a.shared, real)
+    extract_real(a.ballvision, a.shared, a.more_boxes, real)
     X, y, group, image, prior = load([real, a.sim_table])
+    sets = np.array([g if g == "sim" else key[2] for g, key in zip(group, image)])
     if a.report:
         for v in sorted(set(group) - {"sim"}):
             tr = group != v
-            mean, sd, m = train(X[tr], y[tr])
+            mean, sd, m, alpha = train(X[tr], y[tr], sets[tr], [image[i] for i in np.where(tr)[0]],
+                                       prior[tr])
             q, logit = quantise(mean, sd, m, X[tr])
             te = np.where(group == v)[0]
             lg = logit(X[te])
@@ -249,13 +284,14 @@ def main():
             for proto in sorted(set(image[i][1] for i in te)):
                 sel = [k for k, i in enumerate(te) if image[i][1] == proto]
                 f, n, fa, imgs = image_figures([image[te[k]] for k in sel], y[te][sel], s[sel])
-                print("venue %s left out, %-8s found %3d / %3d (%5.1f %%), false %3d / %3d "
-                      "(%4.1f %%)" % (v, proto, f, n, 100.0 * f / max(n, 1), fa, imgs,
+                print("venue %s left out (L2 %g), %-8s found %3d / %3d (%5.1f %%), false %3d / %3d "
+                      "(%4.1f %%)" % (v, alpha, proto, f, n, 100.0 * f / max(n, 1), fa, imgs,
                                       100.0 * fa / max(imgs, 1)))
     for name, leave_out in (("builtin", None), ("without_2019", "2019"),
                             ("without_2022", "2022")):
         keep = group != leave_out if leave_out else np.ones(len(y), dtype=bool)
-        mean, sd, m = train(X[keep], y[keep])
+        mean, sd, m, alpha = train(X[keep], y[keep], sets[keep],
+                                   [image[i] for i in np.where(keep)[0]], prior[keep])
         q, logit = quantise(mean, sd, m, X[keep])
         acc = ((logit(X[keep]) > a.threshold) == (y[keep] == 1)).mean()
         data = blob(q, a.threshold)
@@ -264,8 +300,8 @@ def main():
         if leave_out is None:
             with open(os.path.join(a.out_dir, "ball_classifier_weights.cpp"), "w") as f:
                 f.write(cpp_source(data))
-        print("%s: %d bytes, %d candidates (%d balls), training accuracy %.3f"
-              % (name, len(data), keep.sum(), y[keep].sum(), acc))
+        print("%s: %d bytes, %d candidates (%d balls), L2 %g by leave-one-set-out, training "
+              "accuracy %.3f" % (name, len(data), keep.sum(), y[keep].sum(), alpha, acc))
 
 
 if __name__ == "__main__":
