@@ -524,6 +524,51 @@ TEST_F(FeatureImageTest, BadFramesAndConfigurationsAreRefused) {
   EXPECT_EQ(ex->Extract(huge, *lut_, *f).code(), StatusCode::kInvalidArgument);
 }
 
+// A robot with one side behind a strut of our own (a mask sector over its edge, holding a feature
+// ray; the strut itself dark in the middle of the sector): the ray is moved beside the sector, the
+// robot is found where it stands, and its hidden side is not taken from the strut's dark pixels.
+TEST_F(FeatureImageTest, ARobotHalfBehindOurOwnStrutIsFoundWhereItStands) {
+  float ru = 0, rv = 0;
+  ASSERT_TRUE(OmniGroundToPixel(cal_.omni, kRobotX, kRobotY, ru, rv).ok());
+  const auto image_deg = [&](float u, float v) {
+    return std::atan2(v - cal_.omni.center_v, u - cal_.omni.center_u) * 180.0 / kPi;
+  };
+  const double robot_deg = image_deg(ru, rv);
+  const double half_deg = std::asin(kRobotR / std::hypot(kRobotX, kRobotY)) * 180.0 / kPi;
+  const double strut_deg = robot_deg + half_deg;  // on the robot's edge
+  const auto off = [](double a, double b) { return std::fabs(std::remainder(a - b, 360.0)); };
+  scan_.strut_count = 1;
+  scan_.struts[0] = {static_cast<float>(strut_deg), 3.0f};
+  Paint([&](double gx, double gy) -> uint8_t {
+    float u = 0, v = 0;
+    if (OmniGroundToPixel(cal_.omni, static_cast<float>(gx), static_cast<float>(gy), u, v).ok() &&
+        off(image_deg(u, v), strut_deg) <= 1.5) {
+      return 20;  // the strut
+    }
+    return Scene(gx, gy);
+  });
+  int moved = 0;
+  for (int i = 0; i < scan_.features.rays; ++i) {
+    const double nominal = 360.0 * i / scan_.features.rays;
+    if (off(nominal, strut_deg) > 3.0) continue;
+    ++moved;
+    EXPECT_FALSE(OmniFeatureRayBlocked(scan_, i)) << i;
+    const double a = OmniFeatureRayAngle(scan_, i) * 180.0 / kPi;
+    EXPECT_GT(off(a, strut_deg), 3.0) << i;
+    EXPECT_LT(off(a, nominal), 0.5 * 360.0 / scan_.features.rays) << i;
+  }
+  ASSERT_GE(moved, 1);
+  auto ex = std::make_unique<FieldFeatureExtractor>();
+  auto walk = std::make_unique<FieldFeatureWalk>();
+  ASSERT_TRUE(ex->Init(scan_, cal_.omni, FieldFeatureConfig{}, *walk).ok());
+  auto f = std::make_unique<FieldFeatures>();
+  ASSERT_TRUE(ex->Extract(view(), *lut_, *f).ok());
+  ASSERT_EQ(f->obstacle_count, 1);
+  EXPECT_NEAR(f->obstacles[0].x_m, kRobotX, 0.15);
+  EXPECT_NEAR(f->obstacles[0].y_m, kRobotY, 0.15);
+  EXPECT_NEAR(f->obstacles[0].radius_m, kRobotR, 0.1);
+}
+
 // The walk's offsets are for one stride: a frame with padded rows gets them rebuilt, and the
 // same features.
 TEST_F(FeatureImageTest, AnotherStrideGivesTheSameFeatures) {

@@ -207,13 +207,23 @@ TEST(PipelineOmniScanTest, TheSelfMaskReplacesTheReferenceRigsGeometry) {
     EXPECT_EQ(own.struts[i].angle_deg, angles[i]);
     EXPECT_EQ(own.struts[i].half_width_deg, 3.0f);
   }
-  // A feature ray inside a mask sector is not walked (no obstacle can be reported there).
+  // A feature ray inside a mask sector is walked just beside it (nothing is read inside the
+  // sector, and an obstacle right behind the strut is still seen); one that would have to move
+  // more than half a ray step is not walked.
   const int rays = own.features.rays;
   ASSERT_GT(rays, 0);
-  int blocked = 0;
-  for (int i = 0; i < rays; ++i) blocked += OmniFeatureRayBlocked(own, i) ? 1 : 0;
-  EXPECT_GE(blocked, 4);
-  EXPECT_TRUE(OmniFeatureRayBlocked(own, static_cast<int>(std::lround(110.0f / 360.0f * rays))));
+  const int in_strut = static_cast<int>(std::lround(110.0f / 360.0f * rays));
+  EXPECT_FALSE(OmniFeatureRayBlocked(own, in_strut));
+  EXPECT_NEAR(OmniFeatureRayAngle(own, in_strut) * 180.0f / 3.14159265f, 113.5f, 1e-3f);
+  for (int i = 0; i < rays; ++i) {
+    const float a = OmniFeatureRayAngle(own, i) * 180.0f / 3.14159265f;
+    for (int s = 0; s < 4; ++s) {
+      EXPECT_GT(std::fabs(std::remainder(a - angles[s], 360.0f)), 3.0f) << i;
+    }
+  }
+  OmniScanConfig wide = own;
+  wide.struts[1].half_width_deg = 6.0f;  // wider than a ray step: its middle ray stays out
+  EXPECT_TRUE(OmniFeatureRayBlocked(wide, in_strut));
 }
 
 TEST(SizeMisfitTest, ARimLostInFullViewIsNotAHiddenBall) {

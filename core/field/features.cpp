@@ -71,6 +71,7 @@ Status FieldFeatureExtractor::Init(const OmniScanConfig& scan, const OmniCalibra
   for (int i = 0; i < scan.features.rays; ++i) {
     const OmniRayQ q = MakeOmniRay(scan, i);
     rays_[i] = q;
+    angle_[i] = OmniFeatureRayAngle(scan, i);
     if (OmniFeatureRayBlocked(scan, i)) blocked_ |= uint64_t{1} << i;
     int k = 0;
     for (; k < n_radii_; ++k) {
@@ -83,8 +84,8 @@ Status FieldFeatureExtractor::Init(const OmniScanConfig& scan, const OmniCalibra
   if (!(config.line_width_m > 0.0f) || !(config.min_width_factor > 0.0f) ||
       !(config.max_width_factor > config.min_width_factor) || config.min_obstacle_samples < 1 ||
       !(config.max_line_range_m > 0.0f) || !(config.max_obstacle_range_m > 0.0f) ||
-      !(config.obstacle_merge_m > 0.0f) || !(config.goal_width_m > 0.0f) ||
-      !(config.goal_depth_m > 0.0f) || config.min_goal_rays < 1) {
+      !(config.obstacle_merge_m > 0.0f) || !(config.hidden_obstacle_radius_m > 0.0f) ||
+      !(config.goal_width_m > 0.0f) || !(config.goal_depth_m > 0.0f) || config.min_goal_rays < 1) {
     return Status(StatusCode::kInvalidArgument, "field features: bad configuration");
   }
   scan_ = scan;
@@ -304,9 +305,31 @@ bool FieldFeatureExtractor::DarkAt(const YuyvImage& img, const ColorLut& lut, fl
   return ClassAt(img, lut, u, v) == ColorClass::kObstacle;
 }
 
+float FieldFeatureExtractor::ClearOf(float a, float b) const {
+  const float dir = b >= a ? 1.0f : -1.0f;
+  float best = b;
+  for (int s = 0; s < scan_.strut_count; ++s) {
+    const float c = scan_.struts[s].angle_deg * (kPi / 180.0f);
+    const float h = scan_.struts[s].half_width_deg * (kPi / 180.0f);
+    // The sector's near edge, seen from a, along the direction of travel.
+    const float edge = a + WrapPi(c - dir * h - a);
+    if (dir * (edge - a) >= 0.0f && dir * (edge - best) < 0.0f) best = edge;
+  }
+  return best;
+}
+
+float FieldFeatureExtractor::AngleNear(int ray, float near) const {
+  return near + WrapPi(angle_[ray] - near);
+}
+
 // Bisection between an angle inside the obstacle and one outside: the edge angle.
 float FieldFeatureExtractor::RefineEdge(const YuyvImage& img, const ColorLut& lut, float in_angle,
-                                        float out_angle, float r, FieldFeatures& out) {
+                                        float out_angle, float r, FieldFeatures& out,
+                                        bool& hidden) {
+  const float clear = ClearOf(in_angle, out_angle);
+  hidden = clear != out_angle && DarkAt(img, lut, clear, r, out);
+  if (hidden) return clear;
+  out_angle = clear;
   for (int i = 0; i < kEdgeBisections; ++i) {
     const float mid = 0.5f * (in_angle + out_angle);
     if (DarkAt(img, lut, mid, r, out)) {
@@ -350,9 +373,25 @@ void FieldFeatureExtractor::MergeObstacles(const YuyvImage& img, const ColorLut&
     }
     off = j - 1;
     const float probe_r = foot_r + kEdgeProbeInsetPx;
-    const float a_first = RayAngle(i0, n), a_last = a_first + step * static_cast<float>(count - 1);
-    const float lo = RefineEdge(img, lut, a_first, a_first - step, probe_r, out);
-    const float hi = RefineEdge(img, lut, a_last, a_last + step, probe_r, out);
+    // The group may bridge a masked ray: its angular span is from first to last, not its count.
+    const float a_first = angle_[i0];
+    const float a_last = a_first + std::fmod(angle_[last] - a_first + 4.0f * kPi, 2.0f * kPi);
+    // An edge behind the robot's own strut cannot be seen (the strut is dark too): that side is
+    // taken from a typical obstacle's width when the other side is seen.
+    bool lo_hidden = false, hi_hidden = false;
+    float lo = RefineEdge(img, lut, a_first, AngleNear((i0 + n - 1) % n, a_first - step), probe_r,
+                          out, lo_hidden);
+    float hi = RefineEdge(img, lut, a_last, AngleNear((last + 1) % n, a_last + step), probe_r, out,
+                          hi_hidden);
+    if (lo_hidden != hi_hidden) {
+      const float rh = config_.hidden_obstacle_radius_m;
+      const float width = 2.0f * std::asin(std::min(1.0f, rh / (foot_m + rh)));
+      if (lo_hidden) {
+        lo = std::min(lo, hi - width);
+      } else {
+        hi = std::max(hi, lo + width);
+      }
+    }
     const float mid = 0.5f * (lo + hi), half = 0.5f * (hi - lo);
     float x, y;
     if (!Ground(scan_.center_u + foot_r * std::cos(mid), scan_.center_v + foot_r * std::sin(mid), x,
@@ -386,7 +425,7 @@ void FieldFeatureExtractor::MergeGoals(FieldFeatures& out) {
   if (start < 0) return;
   const auto dir = [&](int i, float& dx, float& dy) {  // robot-frame unit vector of ray i
     const float r = Mid(inside_[i] / 2, inside_[i] / 2);
-    const float a = RayAngle(i, n);
+    const float a = angle_[i];
     float x, y;
     if (!Ground(scan_.center_u + r * std::cos(a), scan_.center_v + r * std::sin(a), x, y)) {
       return false;

@@ -52,6 +52,9 @@ struct FieldFeatureConfig {
   float max_obstacle_range_m = 6.0f;  // foot points beyond are not reported
   int min_obstacle_samples = 3;       // dark samples in a row before it counts
   float obstacle_merge_m = 0.6f;      // adjacent-ray feet closer than this: one obstacle
+  // An obstacle that runs into the robot's own mask (a strut) on one side is at least this wide
+  // there: MSL robots stand on up to 52 x 52 cm.
+  float hidden_obstacle_radius_m = 0.25f;
   // Goals (the pipeline copies them from the calibration's field): the carpet ends at the back
   // of the goal, goal_depth behind the goal line, where elsewhere it runs on past the lines.
   float goal_width_m = 2.0f;
@@ -141,8 +144,14 @@ class FieldFeatureExtractor {
   void MergeObstacles(const YuyvImage& img, const ColorLut& lut, FieldFeatures& out);
   bool DarkAt(const YuyvImage& img, const ColorLut& lut, float angle, float r, FieldFeatures& out);
   void Pixel(float angle, float r, int& u, int& v) const;
+  // The edge angle between in_angle (dark) and out_angle; `hidden` when a mask sector in between
+  // stops the search still dark (the edge lies behind the robot's own strut).
   float RefineEdge(const YuyvImage& img, const ColorLut& lut, float in_angle, float out_angle,
-                   float r, FieldFeatures& out);
+                   float r, FieldFeatures& out, bool& hidden);
+  // The first mask sector edge met going from angle a to b (radians, |b - a| < pi), else b.
+  float ClearOf(float a, float b) const;
+  // Ray i's angle unwrapped to lie within pi of `near`.
+  float AngleNear(int ray, float near) const;
   bool Ground(float u, float v, float& x, float& y) const;
 
   OmniScanConfig scan_;
@@ -154,7 +163,8 @@ class FieldFeatureExtractor {
   void BuildWalk(int stride);
   uint8_t inside_[OmniFeatureRays::kMaxRays] = {};  // leading samples of each ray in the frame
   OmniRayQ rays_[OmniFeatureRays::kMaxRays] = {};
-  uint64_t blocked_ = 0;  // rays in a strut wedge
+  float angle_[OmniFeatureRays::kMaxRays] = {};  // each ray's image angle (OmniFeatureRayAngle)
+  uint64_t blocked_ = 0;                         // rays that cannot be moved out of a mask sector
   static_assert(OmniFeatureRays::kMaxRays <= 64);
   bool Blocked(int ray) const { return (blocked_ >> ray) & 1u; }
   // Radius (px) halfway between samples a and b.

@@ -62,8 +62,42 @@ int OmniFeatureRadii(const OmniScanConfig& c, float* radii, int capacity) {
   return n;
 }
 
+namespace {
+constexpr float kRayClearDeg = 0.5f;  // a moved feature ray's distance from the sector's edge
+
+// Feature ray i's angle in degrees, if moved out of a sector (`moved`); `clear` false when it
+// stays in a sector or moved more than half a step.
+float FeatureRayDeg(const OmniScanConfig& c, int ray, bool& clear, bool& moved) {
+  const float step = 360.0f / static_cast<float>(c.features.rays);
+  const float nominal = step * static_cast<float>(ray);
+  float a = nominal;
+  moved = false;
+  for (int s = 0; s < c.strut_count; ++s) {
+    const float d = std::remainder(nominal - c.struts[s].angle_deg, 360.0f);
+    if (std::fabs(d) <= c.struts[s].half_width_deg) {
+      a = c.struts[s].angle_deg +
+          std::copysign(c.struts[s].half_width_deg + kRayClearDeg, d == 0.0f ? 1.0f : d);
+      moved = true;
+      break;
+    }
+  }
+  clear = AngleDiffDeg(a, nominal) <= 0.5f * step;
+  for (int s = 0; s < c.strut_count && clear; ++s) {
+    clear = AngleDiffDeg(a, c.struts[s].angle_deg) > c.struts[s].half_width_deg;
+  }
+  return a;
+}
+}  // namespace
+
+float OmniFeatureRayAngle(const OmniScanConfig& c, int ray) {
+  bool clear = false, moved = false;
+  const float deg = FeatureRayDeg(c, ray, clear, moved);
+  return moved ? deg * (kPi / 180.0f)
+               : 2 * kPi * static_cast<float>(ray) / static_cast<float>(c.features.rays);
+}
+
 OmniRayQ MakeOmniRay(const OmniScanConfig& c, int ray) {
-  const float a = 2 * kPi * static_cast<float>(ray) / static_cast<float>(c.features.rays);
+  const float a = OmniFeatureRayAngle(c, ray);
   OmniRayQ q;
   q.u0_q18 = static_cast<int32_t>(std::lround((c.center_u + 0.5f) * 262144.0f));
   q.v0_q18 = static_cast<int32_t>(std::lround((c.center_v + 0.5f) * 262144.0f));
@@ -73,11 +107,9 @@ OmniRayQ MakeOmniRay(const OmniScanConfig& c, int ray) {
 }
 
 bool OmniFeatureRayBlocked(const OmniScanConfig& c, int ray) {
-  const float angle_deg = 360.0f * static_cast<float>(ray) / static_cast<float>(c.features.rays);
-  for (int s = 0; s < c.strut_count; ++s) {
-    if (AngleDiffDeg(angle_deg, c.struts[s].angle_deg) <= c.struts[s].half_width_deg) return true;
-  }
-  return false;
+  bool clear = false, moved = false;
+  FeatureRayDeg(c, ray, clear, moved);
+  return !clear;
 }
 
 float DiameterProfile::At(float x) const {

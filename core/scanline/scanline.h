@@ -60,7 +60,11 @@ struct OmniScanConfig {
 /// -1 if the ray set is invalid (rays not a power of two <= kMaxRays (64), more than kMaxRadii
 /// radii, a centre or end radius beyond 2047 px: the fixed-point walk's range).
 int OmniFeatureRadii(const OmniScanConfig& config, float* radii, int capacity);
-/// True if feature ray i's angle (2 pi i / rays, image angle, v down) lies in a strut wedge.
+/// Feature ray i's image angle (radians, v down): 2 pi i / rays, or, when that lies in a mask
+/// sector, just outside the sector's edge on its own side: a strut hides a few degrees of the
+/// view, not a whole ray's share of it (an obstacle right behind it is still seen beside it).
+float OmniFeatureRayAngle(const OmniScanConfig& config, int ray);
+/// True if feature ray i cannot be moved out of the mask sectors within half a ray step.
 bool OmniFeatureRayBlocked(const OmniScanConfig& config, int ray);
 /// Fixed-point walk along feature ray i: pixel of radius r (1/16 px) = floor(centre + 0.5 + r *
 /// (cos, sin)), in integers so the table build and every reader get the same pixels, and the
