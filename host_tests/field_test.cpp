@@ -411,6 +411,17 @@ class FeatureImageTest : public ::testing::Test {
   }
   static constexpr uint8_t kGreenY = 100;
   YuyvImage view() const { return MakeYuyvImage(img_.data(), kFrameWidth, kFrameHeight); }
+  // Extracts from the painted image with scan_: one obstacle, the robot.
+  void ExtractFindingTheRobot(FieldFeatures& f) const {
+    auto ex = std::make_unique<FieldFeatureExtractor>();
+    auto walk = std::make_unique<FieldFeatureWalk>();
+    ASSERT_TRUE(ex->Init(scan_, cal_.omni, FieldFeatureConfig{}, *walk).ok());
+    ASSERT_TRUE(ex->Extract(view(), *lut_, f).ok());
+    ASSERT_EQ(f.obstacle_count, 1);
+    EXPECT_NEAR(f.obstacles[0].x_m, kRobotX, 0.15);
+    EXPECT_NEAR(f.obstacles[0].y_m, kRobotY, 0.15);
+    EXPECT_NEAR(f.obstacles[0].radius_m, kRobotR, 0.1);
+  }
 
   RigCalibration cal_;
   std::unique_ptr<ColorLut> lut_ = std::make_unique<ColorLut>();
@@ -447,15 +458,8 @@ TEST_F(FeatureImageTest, ARobotRightBehindALineIsFound) {
     if (robot_or_floor == 20) return 20;
     return std::fabs(std::hypot(gx, gy) - (foot - 0.1)) <= 0.1 ? 230 : kGreenY;
   });
-  auto ex = std::make_unique<FieldFeatureExtractor>();
-  auto walk = std::make_unique<FieldFeatureWalk>();
-  ASSERT_TRUE(ex->Init(scan_, cal_.omni, FieldFeatureConfig{}, *walk).ok());
-  auto f = std::make_unique<FieldFeatures>();
-  ASSERT_TRUE(ex->Extract(view(), *lut_, *f).ok());
-  ASSERT_EQ(f->obstacle_count, 1);
-  EXPECT_NEAR(f->obstacles[0].x_m, kRobotX, 0.15);
-  EXPECT_NEAR(f->obstacles[0].y_m, kRobotY, 0.15);
-  EXPECT_NEAR(f->obstacles[0].radius_m, kRobotR, 0.1);
+  const auto f = std::make_unique<FieldFeatures>();
+  ExtractFindingTheRobot(*f);
   ASSERT_GE(f->line_count, 20);
   for (int i = 0; i < f->line_count; ++i) {
     EXPECT_NEAR(std::hypot(f->lines[i].x_m, f->lines[i].y_m), foot - 0.1, 0.06);
@@ -558,15 +562,8 @@ TEST_F(FeatureImageTest, ARobotHalfBehindOurOwnStrutIsFoundWhereItStands) {
     EXPECT_LT(off(a, nominal), 0.5 * 360.0 / scan_.features.rays) << i;
   }
   ASSERT_GE(moved, 1);
-  auto ex = std::make_unique<FieldFeatureExtractor>();
-  auto walk = std::make_unique<FieldFeatureWalk>();
-  ASSERT_TRUE(ex->Init(scan_, cal_.omni, FieldFeatureConfig{}, *walk).ok());
-  auto f = std::make_unique<FieldFeatures>();
-  ASSERT_TRUE(ex->Extract(view(), *lut_, *f).ok());
-  ASSERT_EQ(f->obstacle_count, 1);
-  EXPECT_NEAR(f->obstacles[0].x_m, kRobotX, 0.15);
-  EXPECT_NEAR(f->obstacles[0].y_m, kRobotY, 0.15);
-  EXPECT_NEAR(f->obstacles[0].radius_m, kRobotR, 0.1);
+  const auto f = std::make_unique<FieldFeatures>();
+  ExtractFindingTheRobot(*f);
 }
 
 // The walk's offsets are for one stride: a frame with padded rows gets them rebuilt, and the
