@@ -11,17 +11,19 @@ fail() { echo "FAIL: $*"; exit 1; }
 if [ ! -f "$src/truth.csv" ]; then echo "SKIP: $src not found"; exit 77; fi
 [ -x "$bv" ] || fail "host tool $bv not built: build the host preset first"
 rm -rf "$work" && mkdir -p "$work"
-"$bv" seq to-raw "$src" "$work/seq" --first 0 --count 1 > /dev/null || fail "seq to-raw failed"
-# Frame 0 thirty times: wherever in the replay the command arrives, the ball is at the click.
+# Frame 1 thirty times: wherever in the replay the command arrives, the ball is at the click. (In
+# frame 0 the ball hangs at the top of its drop against the hall, and the built-in look check
+# refuses it until it moves: the pipeline acquires it from frame 1 on.)
+"$bv" seq to-raw "$src" "$work/seq" --first 1 --count 1 > /dev/null || fail "seq to-raw failed"
 { echo "index,t_us,omni_file,persp_file"
-  for i in $(seq 0 29); do echo "$i,$((i * 33333)),omni_0.yuyv,persp_0.yuyv"; done
+  for i in $(seq 0 29); do echo "$i,$((i * 33333)),omni_1.yuyv,persp_1.yuyv"; done
 } > "$work/seq/frames.csv"
 repo=$(cd "$here/../.." && pwd)
 "$bv" calib to-blob "$repo/host_tests/data/reference_rig_calib.json" "$work/cal.bin" > /dev/null ||
   fail "calib to-blob"
-# The click: the persp ball centre of frame 0 (the ball hangs at the top of its drop, ~15 px).
+# The click: the persp ball centre of frame 1.
 read -r u v < <(awk -F, 'NR == 1 { for (i = 1; i <= NF; ++i) c[$i] = i }
-                         NR == 2 { print $c["cu_persp"], $c["cv_persp"] }' "$src/truth.csv")
+                         NR == 3 { print $c["cu_persp"], $c["cv_persp"] }' "$src/truth.csv")
 "$py" "$here/make_teach_commands.py" "$work/commands.bin" "$u" "$v" ||
   fail "make_teach_commands"
 qemu_piped "$qemu" "$elf" "$work" "$work/uart.bin" "$work/commands.bin" \
