@@ -51,15 +51,13 @@ float FieldContext(const YuyvImage& image, const ColorLut& lut, const Region& r)
   }
   return static_cast<float>(n) / kContextSamples;
 }
-}  // namespace
 
-// The shape test, then the field test (in reject mode an outside region fails).
-namespace {
 bool CutByBorder(const Region& r, int width, int height) {
   return r.u_min <= 0 || r.v_min <= 0 || r.u_max >= width - 1 || r.v_max >= height - 1;
 }
 }  // namespace
 
+// The shape test, then the field test (in reject mode an outside region fails).
 bool BallFinder::Passes(const Region& r, bool& in_field) const {
   in_field = true;
   const bool clean = r.roundness >= config_.min_roundness;

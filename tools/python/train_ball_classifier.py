@@ -106,18 +106,26 @@ def choose_alpha(X, y, sets, image, prior):
             if y[tr].min() == y[tr].max():
                 continue
             mean, sd, m = fit(X[tr], y[tr], alpha)
-            lg = m.predict_proba((X[te] - mean) / sd)[:, 1]
-            sc = np.where(lg > 0.5, prior[te] * lg, -1.0)
-            f, _, fa, _ = image_figures([image[i] for i in te], y[te], sc)
+            p = m.predict_proba((X[te] - mean) / sd)[:, 1]
+            f, _, fa, _ = image_figures([image[i] for i in te], y[te],
+                                        ranked(p, p > 0.5, prior[te]))
             score += f - fa
         if best is None or score > best[1]:
             best = (alpha, score)
     return best[0]
 
 
-def train(X, y, sets, image, prior):
-    alpha = choose_alpha(X, y, sets, image, prior)
-    mean, sd, m = fit(X, y, alpha)
+def ranked(p, passed, prior):
+    """A candidate's rank key as core/detect has it: look probability times place prior; -1 when
+    the look check refuses it."""
+    return np.where(passed, prior * p, -1.0)
+
+
+def train(X, y, sets, image, prior, keep):
+    """Trains on the rows of `keep`, the L2 weight chosen on them alone."""
+    idx = np.flatnonzero(keep)
+    alpha = choose_alpha(X[idx], y[idx], sets[idx], [image[i] for i in idx], prior[idx])
+    mean, sd, m = fit(X[idx], y[idx], alpha)
     return mean, sd, m, alpha
 
 
@@ -210,8 +218,8 @@ def extract_real(ballvision, shared, more_boxes, out):
     d = os.path.join(shared, "msl_robocup_ml")
     raw = out + ".raw"
     cmd = [ballvision, "detect-eval", "--boxes", os.path.join(d, "annotations_px.txt"),
-           "--more-boxes", more_boxes, "--images", os.path.join(d, "images"), "--protocol", "all", "--classifier", "off",
-           "--candidates", raw]
+           "--more-boxes", more_boxes, "--images", os.path.join(d, "images"), "--protocol", "all",
+           "--classifier", "off", "--candidates", raw]
     r = subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     if r.returncode != 0:
         sys.exit("train_ball_classifier: %s failed: %s" % (" ".join(cmd), r.stderr))
@@ -275,12 +283,11 @@ def main():
     if a.report:
         for v in sorted(set(group) - {"sim"}):
             tr = group != v
-            mean, sd, m, alpha = train(X[tr], y[tr], sets[tr], [image[i] for i in np.where(tr)[0]],
-                                       prior[tr])
+            mean, sd, m, alpha = train(X, y, sets, image, prior, tr)
             q, logit = quantise(mean, sd, m, X[tr])
             te = np.where(group == v)[0]
             lg = logit(X[te])
-            s = np.where(lg > a.threshold, prior[te] / (1 + np.exp(-np.clip(lg, -50, 50))), -1.0)
+            s = ranked(1 / (1 + np.exp(-np.clip(lg, -50, 50))), lg > a.threshold, prior[te])
             for proto in sorted(set(image[i][1] for i in te)):
                 sel = [k for k, i in enumerate(te) if image[i][1] == proto]
                 f, n, fa, imgs = image_figures([image[te[k]] for k in sel], y[te][sel], s[sel])
@@ -290,8 +297,7 @@ def main():
     for name, leave_out in (("builtin", None), ("without_2019", "2019"),
                             ("without_2022", "2022")):
         keep = group != leave_out if leave_out else np.ones(len(y), dtype=bool)
-        mean, sd, m, alpha = train(X[keep], y[keep], sets[keep],
-                                   [image[i] for i in np.where(keep)[0]], prior[keep])
+        mean, sd, m, alpha = train(X, y, sets, image, prior, keep)
         q, logit = quantise(mean, sd, m, X[keep])
         acc = ((logit(X[keep]) > a.threshold) == (y[keep] == 1)).mean()
         data = blob(q, a.threshold)
