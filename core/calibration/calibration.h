@@ -64,7 +64,12 @@ struct OmniCalibration {
   float viewpoint_z_m = 0;  // f_O, mirror viewpoint height (rig constant)
   // Image direction of sector s covers angle [s*8°, (s+1)*8°) measured in the image; the
   // convention between image angle and robot bearing is documented in calibration.cpp.
-  float edge_ground_m[kEdges] = {};            // ground distances of the support vectors
+  float edge_ground_m[kEdges] = {};  // ground distances of the support vectors
+  // Derived, never serialised: atan(edge_ground_m[k] / viewpoint_z_m), so that the maps take no
+  // arc tangent per pixel (~2 % of a frame pair on the M7). PrepareOmniAngles sets them (the blob
+  // and JSON readers call it); while 0 the maps compute them. Prepare again after changing the
+  // edges or the viewpoint.
+  float edge_psi_rad[kEdges] = {};
   float support_px[kDirections][kEdges] = {};  // image radius of each support vector
   uint8_t sector_flags[kDirections] = {};      // bit 0: interpolated (occluded sector)
   // Image angle phi = atan2(v - center_v, u - center_u) (v down) relates to the robot azimuth
@@ -81,6 +86,8 @@ struct OmniCalibration {
   OmniSelfMask self_mask;               // unknown in blobs before version 4
 };
 
+/// Fills OmniCalibration::edge_psi_rad from the edges and the viewpoint height.
+void PrepareOmniAngles(OmniCalibration& cal);
 /// h(phi) of OmniCalibration::azimuth_harmonics_rad.
 float OmniAzimuthCorrection(const OmniCalibration& cal, float phi);
 

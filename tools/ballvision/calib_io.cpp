@@ -179,6 +179,7 @@ bool OmniFromJson(const json& j, const std::string& file, OmniCalibration& o,
   r.Allow({"samples", "rim_radius_px", "symmetric_support_px", "rms_ground_rel",
            "symmetric_rms_ground_rel"});
   if (!ok) error = r.error();
+  if (ok) PrepareOmniAngles(o);
   if (ok && unknown) {
     for (auto& k : r.UnknownKeys()) unknown->push_back(k);
   }

@@ -109,6 +109,7 @@ OmniCalibration FittedGeometry(const RimFit& rim, const AngleFit& angle, const E
     cal.azimuth_harmonics_rad[k] = static_cast<float>(angle.harmonics_rad[k]);
   }
   for (int k = 0; k < kEdges; ++k) cal.edge_ground_m[k] = static_cast<float>(edges.edge_m[k]);
+  PrepareOmniAngles(cal);
   return cal;
 }
 

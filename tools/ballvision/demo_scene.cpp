@@ -67,6 +67,7 @@ RigCalibration MakeDemoCalibration() {
     const float r = MirrorRadiusPx(std::atan(edges[k] / o.viewpoint_z_m));
     for (int d = 0; d < OmniCalibration::kDirections; ++d) o.support_px[d][k] = r;
   }
+  PrepareOmniAngles(o);
   return cal;
 }
 
