@@ -178,3 +178,33 @@ TEST(LutTeachTest, OneClickTeachOnASequenceFindsTheBallEverywhere) {
 
 }  // namespace
 }  // namespace bv::lut
+
+namespace bv::cli {
+namespace {
+
+// A band of floor balls seen by a camera 0.7 m up, and three balls held up above the band (a
+// person's hands, a robot's top): the profile must not put the horizon above the held ones and
+// hand the floor balls to the curve (that put a real set's camera 3-19 m up).
+TEST(FloorProfileTest, HeldBallsAboveTheFloorBandLeaveTheCameraAtItsHeight) {
+  constexpr float kR = 0.11f, kHeight = 0.7f, kHorizon = 330.0f;
+  const float k = kR / (kHeight - kR);
+  AnnotatedImage im;
+  int i = 0;
+  for (float v = 360.0f; v <= 470.0f; v += 4.0f, ++i) {
+    const float r = k * (v - kHorizon) * (1.0f + 0.05f * static_cast<float>(i % 3 - 1));
+    im.boxes.push_back({0, 300.0f - r, v - r, 300.0f + r, v + r, i});
+  }
+  for (float v : {250.0f, 280.0f, 310.0f})
+    im.boxes.push_back({0, 100.0f, v - 15, 130.0f, v + 15, 0});
+  FloorBallProfile p;
+  std::string note;
+  ASSERT_TRUE(LearnFloorProfile({im}, 608, 800, p, note)) << note;
+  EXPECT_NEAR(p.horizon_v_px, kHorizon, 15.0f);
+  const float height = kR * (1.0f + 1.0f / p.slope);
+  EXPECT_GT(height, 0.5f);
+  EXPECT_LT(height, 0.95f);
+  EXPECT_LT(p.spread, 0.15f);
+}
+
+}  // namespace
+}  // namespace bv::cli

@@ -16,8 +16,18 @@ struct FloorSample {
   float v, r;
 };
 
+// A level pinhole at height h sees k = R / (h - R) (core/ball_check/floor_profile.h), whatever
+// its pitch to first order. An MSL robot is at most 0.8 m tall: a fit beyond these heights has let
+// the quadratic term take the slope (a set whose balls lie in a band put the camera 3-19 m up,
+// and every candidate's height with it), so k is held to them.
+constexpr double kBallRadiusM = 0.11;
+constexpr double kCameraMinM = 0.2, kCameraMaxM = 1.2;
+constexpr double kSlopeMin = kBallRadiusM / (kCameraMaxM - kBallRadiusM);
+constexpr double kSlopeMax = kBallRadiusM / (kCameraMinM - kBallRadiusM);
+
 // Weighted least squares of r / d = k + c d on the samples below the horizon, d = v - v_h
-// (relative residuals: a far ball's pixel counts as much as a near one's).
+// (relative residuals: a far ball's pixel counts as much as a near one's), k within
+// [kSlopeMin, kSlopeMax] (at a bound, c alone is fitted).
 struct Fit {
   float k = 0, c = 0, cost = 3.4e38f, sd = 0;
 };
@@ -36,9 +46,14 @@ Fit FitAt(const std::vector<FloorSample>& s, float vh, bool quadratic) {
     if (sw <= 0) return best;
     double k = sy / sw, c = 0;
     const double det = sw * sxx - sx * sx;
-    if (quadratic && det > 1e-9 * sw * sxx) {
+    const bool curved = quadratic && det > 1e-9 * sw * sxx;
+    if (curved) {
       c = (sw * sxy - sx * sy) / det;
       k = (sy - c * sx) / sw;
+    }
+    if (k < kSlopeMin || k > kSlopeMax) {
+      k = std::clamp(k, kSlopeMin, kSlopeMax);
+      c = curved ? (sxy - k * sx) / sxx : 0.0;
     }
     // Relative residuals; a sample above the horizon misses by its whole size.
     std::vector<float> res(s.size());
@@ -96,8 +111,15 @@ bool LearnFloorProfile(const std::vector<AnnotatedImage>& images, int width, int
   const bool quadratic = s.size() >= 12 && v_hi - v_lo >= 150.0f;
   Fit best;
   float best_vh = 0;
-  // The horizon lies above the highest floor ball; search a row grid there.
-  for (float vh = v_lo - 4.0f * r_max - 200.0f; vh < v_lo; vh += 1.0f) {
+  // The horizon lies above the floor balls; search a row grid there. Not only above the highest
+  // box: that may be a ball held up or on a robot (an outlier of the fit), and a horizon forced
+  // above it leaves only the curve to hold the floor balls. The grid runs down to the upper
+  // quartile's row; boxes above the horizon count as misses.
+  std::vector<float> rows(s.size());
+  for (size_t i = 0; i < s.size(); ++i) rows[i] = s[i].v;
+  std::nth_element(rows.begin(), rows.begin() + rows.size() / 4, rows.end());
+  const float vh_end = rows[rows.size() / 4];
+  for (float vh = v_lo - 4.0f * r_max - 200.0f; vh < vh_end; vh += 1.0f) {
     const Fit f = FitAt(s, vh, quadratic);
     if (f.k > 0.0f && f.cost < best.cost) {
       best = f;
