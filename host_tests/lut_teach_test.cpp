@@ -206,5 +206,14 @@ TEST(FloorProfileTest, HeldBallsAboveTheFloorBandLeaveTheCameraAtItsHeight) {
   EXPECT_LT(p.spread, 0.15f);
 }
 
+TEST(TeachBlurTest, FewBallSamplesWidenTheBlurUpToTwoCellsMore) {
+  const BoxTeachOptions o;  // +-2 cells at 16,000 samples
+  EXPECT_EQ(TeachBlur(o, 60000), o.smooth);
+  EXPECT_EQ(TeachBlur(o, o.reference_ball_samples), o.smooth);
+  EXPECT_EQ(TeachBlur(o, 2400), o.smooth + 1);  // a first-5 teach: (16000 / 2400)^(1/6) = 1.37
+  EXPECT_EQ(TeachBlur(o, 10), o.smooth + 2);    // capped
+  EXPECT_EQ(TeachBlur(o, 0), o.smooth + 2);
+}
+
 }  // namespace
 }  // namespace bv::cli

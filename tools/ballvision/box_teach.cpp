@@ -282,6 +282,14 @@ void KeepOffTheField(const std::vector<Loaded>& loaded, BoxTeach& out) {
 
 }  // namespace
 
+// A few boxes (a teach from five images) leave the ball's colours sparse: holes in the class
+// that break the ball into pieces the shape test refuses.
+int TeachBlur(const BoxTeachOptions& options, double ball_samples) {
+  const double few = std::max(1.0, options.reference_ball_samples / std::max(ball_samples, 1.0));
+  return std::min(options.smooth + 2,
+                  static_cast<int>(std::lround(options.smooth * std::pow(few, 1.0 / 6.0))));
+}
+
 bool TeachFromBoxes(const std::string& box_file, const std::vector<AnnotatedImage>& images,
                     const BoxTeachOptions& options, BoxTeach& out, std::string& error) {
   out = BoxTeach{};
@@ -291,6 +299,8 @@ bool TeachFromBoxes(const std::string& box_file, const std::vector<AnnotatedImag
   lut::Trainer trainer(opt);
   std::vector<Loaded> loaded;
   if (!LoadAndAdd(box_file, images, trainer, loaded, out, error)) return false;
+  out.smooth = TeachBlur(options, trainer.ball_samples());
+  trainer.SetSmooth(out.smooth);
   out.table = std::make_unique<ColorLut>(trainer.Build());
   out.ball_samples = trainer.ball_samples();
   out.other_samples = trainer.other_samples();

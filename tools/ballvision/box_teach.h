@@ -19,7 +19,10 @@ namespace bv::cli {
 
 struct BoxTeachOptions {
   float ratio = 10.0f;  // ball where its density beats the rest's by this
-  int smooth = 2;       // densities blurred over +-2 chroma cells (+-1 in Y)
+  int smooth = 2;       // densities blurred over +-2 chroma cells (+-1 in Y) ...
+  // ... at this many ball samples or more; fewer widen the blur as a density estimate's bandwidth
+  // grows, by (reference / samples)^(1/6) (two chroma dimensions), up to smooth + 2.
+  double reference_ball_samples = 16000;
 };
 
 struct BoxTeach {
@@ -36,6 +39,7 @@ struct BoxTeach {
   std::string profile_note;
   int width = 0, height = 0;  // the images' size
   int ball_images = 0;
+  int smooth = 0;  // the blur used (BoxTeachOptions)
 };
 
 /// Teaches from `images` (all of one camera: one size). False with `error` naming the file, line
@@ -43,6 +47,9 @@ struct BoxTeach {
 /// box, a colour the fit cannot hold or that would take the field.
 bool TeachFromBoxes(const std::string& box_file, const std::vector<AnnotatedImage>& images,
                     const BoxTeachOptions& options, BoxTeach& out, std::string& error);
+
+/// The blur a teach from `ball_samples` (shade-augmented) ball samples uses.
+int TeachBlur(const BoxTeachOptions& options, double ball_samples);
 
 /// The floor-ball profile from ball boxes: whole balls (aspect >= 0.8, clear of the border),
 /// r = k (v - v_h) fitted robustly (a ball held up or in the air is an outlier), a quadratic term

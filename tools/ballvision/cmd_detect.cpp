@@ -452,9 +452,9 @@ bool TeachAndTest(const EvalContext& ctx, const std::string& label,
   }
   if (ctx.verbose) {
     std::printf(
-        "    %s: %d ball cells holding %.0f %% of the boxes, %.3f %% of the field taken; "
-        "profile %s\n",
-        label.c_str(), t.ball_cells, 100.0 * t.ball_coverage, 100.0 * t.field_taken,
+        "    %s: %d ball cells (blur +-%d) holding %.0f %% of the boxes, %.3f %% of the field "
+        "taken; profile %s\n",
+        label.c_str(), t.ball_cells, t.smooth, 100.0 * t.ball_coverage, 100.0 * t.field_taken,
         t.profile.valid ? "learned" : t.profile_note.c_str());
   }
   return RunTest(ctx, *t.table, t.profile, test, s, error);

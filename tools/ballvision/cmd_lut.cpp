@@ -548,11 +548,11 @@ int TeachBoxesCmd(const TeachArgs& t) {
   }
   std::printf(
       "taught from %zu images (%s), %d with a ball, %dx%d: %d ball cells from %.0f ball / %.0f "
-      "other samples\n"
+      "other samples, blurred over +-%d cells\n"
       "check on %zu background samples: %.3f %% of field and line pixels taken, %.3f %% of all\n",
       images.size(), t.split.c_str(), taught.ball_images, taught.width, taught.height,
-      taught.ball_cells, taught.ball_samples, taught.other_samples, taught.background,
-      100.0 * taught.field_taken, 100.0 * taught.background_taken);
+      taught.ball_cells, taught.ball_samples, taught.other_samples, taught.smooth,
+      taught.background, 100.0 * taught.field_taken, 100.0 * taught.background_taken);
   if (taught.profile.valid) {
     std::printf(
         "floor-ball profile from %u boxes: horizon at row %.1f, radius %.4f px per row "

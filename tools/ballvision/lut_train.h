@@ -68,6 +68,8 @@ class Trainer {
   int Teach(const Image& img, int u, int v, ColorClass cls, float tolerance = 0.12f,
             int max_pixels = 40000);
   ColorLut Build() const;
+  /// The blur of TrainOptions::smooth, for a Build after the samples are in.
+  void SetSmooth(int smooth) { opt_.smooth = smooth; }
   double ball_samples() const { return ball_total_; }
   double other_samples() const { return other_total_; }
 
