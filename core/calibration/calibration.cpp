@@ -104,10 +104,14 @@ Status PerspProject(const PerspCalibration& cal, const Eigen::Vector3f& p_robot,
 
 namespace {
 
-// The viewing angle of support vector k: the prepared one, else computed (a map built in code).
+// The viewing angle of support vector k, computed; EdgePsi: the prepared one, else computed (a map
+// built in code).
+float ComputedEdgePsi(const OmniCalibration& cal, int k) {
+  return std::atan(cal.edge_ground_m[k] / cal.viewpoint_z_m);
+}
 float EdgePsi(const OmniCalibration& cal, int k) {
   const float psi = cal.edge_psi_rad[k];
-  return psi > 0.0f ? psi : std::atan(cal.edge_ground_m[k] / cal.viewpoint_z_m);
+  return psi > 0.0f ? psi : ComputedEdgePsi(cal, k);
 }
 
 // Support vectors at image angle phi, interpolated between the two nearest sector centres, each
@@ -158,10 +162,7 @@ bool HasAzimuthTurn(const OmniCalibration& cal) {
 
 void PrepareOmniAngles(OmniCalibration& cal) {
   if (!(cal.viewpoint_z_m > 0.0f)) return;  // no map: nothing to prepare
-  for (int k = 0; k < OmniCalibration::kEdges; ++k) {
-    cal.edge_psi_rad[k] = 0.0f;
-    cal.edge_psi_rad[k] = EdgePsi(cal, k);
-  }
+  for (int k = 0; k < OmniCalibration::kEdges; ++k) cal.edge_psi_rad[k] = ComputedEdgePsi(cal, k);
 }
 
 float OmniAzimuthCorrection(const OmniCalibration& cal, float phi) {

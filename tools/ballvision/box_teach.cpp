@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "core/ball_check/ball_check.h"
 #include "core/color_lut/color_model.h"
 #include "core/color_lut/color_teach.h"
 #include "tools/ballvision/lut_train.h"
@@ -20,7 +21,7 @@ struct FloorSample {
 // its pitch to first order. An MSL robot is at most 0.8 m tall: a fit beyond these heights has let
 // the quadratic term take the slope (a set whose balls lie in a band put the camera 3-19 m up,
 // and every candidate's height with it), so k is held to them.
-constexpr double kBallRadiusM = 0.11;
+constexpr double kBallRadiusM = BallGeometryConfig{}.ball_radius_m;  // the place check's ball
 constexpr double kCameraMinM = 0.2, kCameraMaxM = 1.2;
 constexpr double kSlopeMin = kBallRadiusM / (kCameraMaxM - kBallRadiusM);
 constexpr double kSlopeMax = kBallRadiusM / (kCameraMinM - kBallRadiusM);
