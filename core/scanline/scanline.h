@@ -175,13 +175,13 @@ class ScanlineTableBase {
     const uintptr_t ahead = static_cast<uintptr_t>(lead_rows_) * static_cast<uintptr_t>(stride);
     for (int v = 0; v < height_; ++v) {
       const uint8_t* const row = data + static_cast<ptrdiff_t>(v) * stride;
+      const uintptr_t row_ahead = reinterpret_cast<uintptr_t>(row) + ahead;
       const uint8_t* kept = nullptr;  // `after` of the last kept sample of this row
       ForEachInRow(v, [&](int u, const uint8_t* after) {
-        const uint8_t* pair = row + (u >> 1) * 4;
-        __builtin_prefetch(
-            reinterpret_cast<const void*>(reinterpret_cast<uintptr_t>(pair) + ahead));
+        const auto offset = static_cast<uintptr_t>(u >> 1) * 4u;
+        __builtin_prefetch(reinterpret_cast<const void*>(row_ahead + offset));
         uint32_t word;
-        std::memcpy(&word, pair, sizeof word);
+        std::memcpy(&word, row + offset, sizeof word);
         if (__builtin_expect(keep(word), 0)) {
           hit(u, v, word, kept == after - 1);
           kept = after;
@@ -219,9 +219,11 @@ class ScanlineTableBase {
       fn(u, static_cast<const uint8_t*>(p));
       if (p == end) break;
       uint32_t step = *p++;
-      while (step == 0) {
-        u += 255;
-        step = *p++;
+      if (__builtin_expect(step == 0, 0)) {
+        do {
+          u += 255;
+          step = *p++;
+        } while (step == 0);
       }
       u += static_cast<int>(step);
     }
