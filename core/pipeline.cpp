@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "core/color_lut/color_lut.h"
 
@@ -181,6 +182,12 @@ void ShadedSideCentre(const OmniCalibration& cal, float radius_px, float lost_px
 // ray's whole sigma (the filter's cap): it binds where the hidden part is most of that sigma, as
 // in the omni elevation, which has no calibration term beside it.
 constexpr float kHiddenCentroidPerMissingRadius = 1.5f;
+
+// How far a detection lies from its camera's prediction, in ball radii there; unknown: +inf.
+float PredictionMisfit(const ImagePrediction& pred, const BallDetection& det, float radius_px) {
+  if (!pred.valid || !(radius_px > 0.f)) return std::numeric_limits<float>::infinity();
+  return std::hypot(det.u_px - pred.u_px, det.v_px - pred.v_px) / radius_px;
+}
 
 }  // namespace
 
@@ -944,6 +951,8 @@ bool Pipeline::TriangulateSameBall(const CameraRays& rays, BallState& out) {
     }
   } else if (tri.status().code() == StatusCode::kOutOfRange) {
     out.flags |= kFlagRaysParallel;  // both rays still go to the filter: it weighs them
+  } else if (tri.status().code() == StatusCode::kNotFound) {
+    return false;  // they meet behind a camera: two objects in different directions
   }
   return true;
 }
@@ -987,9 +996,13 @@ void Pipeline::BuildObservation(const CameraRays& rays, BallState& out, BallObse
     if (have_o) obs.rays[obs.n_rays++] = omni_ray;
     if (have_p) obs.rays[obs.n_rays++] = persp_ray;
   } else {
-    // Two different objects: the omni one goes in (it sees the whole field); the filter's gate
-    // has the final word.
-    obs.rays[obs.n_rays++] = omni_ray;
+    // Two different objects: the one nearer its camera's prediction (in ball radii there) goes
+    // in, the omni one without a prediction (it sees the whole field); the filter's gate has the
+    // final word.
+    const bool persp_nearer =
+        PredictionMisfit(pred_persp_, out.persp, pred_persp_.radius_px) <
+        PredictionMisfit(pred_omni_, out.omni, pred_omni_.silhouette_radius_px);
+    obs.rays[obs.n_rays++] = persp_nearer ? persp_ray : omni_ray;
   }
   if (obs.n_rays == 1) {
     out.flags |= obs.rays[0].camera == 0 ? kFlagOmniGroundFallback : kFlagPerspSizeFallback;

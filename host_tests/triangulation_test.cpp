@@ -82,7 +82,7 @@ TEST(Triangulation, PointBehindACameraIsRefused) {
   Ray p = MakeRay(kPersp, behind);
   p.dir = -p.dir;
   auto t = TriangulateRays(p, MakeRay(kOmni, behind));
-  EXPECT_EQ(t.status().code(), StatusCode::kOutOfRange);
+  EXPECT_EQ(t.status().code(), StatusCode::kNotFound);
 }
 
 TEST(Triangulation, NanOrZeroInputIsInvalidArgument) {

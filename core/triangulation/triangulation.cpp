@@ -43,7 +43,7 @@ Result<Triangulation> TriangulateRays(const Ray& persp, const Ray& omni,
   out.depth_persp_m = s * std::sqrt(pp);
   out.depth_omni_m = t * std::sqrt(oo);
   if (out.depth_persp_m < config.min_depth_m || out.depth_omni_m < config.min_depth_m) {
-    return Status(StatusCode::kOutOfRange, "triangulation: closest point behind a camera");
+    return Status(StatusCode::kNotFound, "triangulation: the rays meet behind a camera");
   }
   if (!Finite(out.point) || !std::isfinite(out.gap_m)) {
     return Status(StatusCode::kInternal, "triangulation: non-finite result");

@@ -24,7 +24,8 @@ struct Triangulation {
 
 /// Paper eq. (2): c_S = (f_P + s r_P + f_O + t r_O) / 2 with (s, t) minimising |f_P + s r_P -
 /// f_O - t r_O|. Errors: kInvalidArgument (NaN/zero direction), kOutOfRange (rays parallel
-/// within min_ray_angle_rad, or the closest point lies behind a camera).
+/// within min_ray_angle_rad: one far object, or two), kNotFound (the closest point lies behind a
+/// camera: the rays diverge, two objects).
 Result<Triangulation> TriangulateRays(const Ray& persp, const Ray& omni,
                                       const TriangulationConfig& config = {});
 
