@@ -506,6 +506,7 @@ Status Pipeline::Init(const RigCalibration& calibration, const ColorLut& lut,
   candidates_.Configure(config_.candidates);
   candidates_.Reset();
   handover_ = Handover{};
+  track_confirmed_ = false;
   stats_ = PipelineStats{};
   pred_omni_ = pred_persp_ = ImagePrediction{};
   RefreshFieldRule();
@@ -634,19 +635,31 @@ bool Pipeline::LargerThanABall(float persp_radius_px, float range_m) const {
 // passed the look check, the omni's (which has none: a yellow shirt or banner at the mirror's rim,
 // while the ball is above its horizon) is left out rather than paired with it.
 void Pipeline::ChooseStereoPair(BallDetection& omni, BallDetection& persp) const {
-  if (StereoConsistent(omni, persp)) return;
+  if (StereoConsistent(omni, persp) || FindStereoPair(omni, persp, false)) return;
+  if (PerspLooked(persp)) omni = BallDetection{};
+}
+
+// The first pair of candidates that is one ball, the larger in the persp image first (inside the
+// field only, when asked and the pose is known); false, and nothing changed, when none is.
+bool Pipeline::FindStereoPair(BallDetection& omni, BallDetection& persp, bool in_field_only) const {
   BallDetection co[kStereoCandidates], cp[kStereoCandidates];
   const size_t no = omni_finder_.Candidates(co), np = persp_finder_.Candidates(cp);
   for (size_t j = 0; j < np; ++j) {  // persp candidates come largest first
     for (size_t i = 0; i < no; ++i) {
-      if (StereoConsistent(co[i], cp[j])) {
-        omni = co[i];
-        persp = cp[j];
-        return;
+      if (!StereoConsistent(co[i], cp[j])) continue;
+      if (in_field_only && field_rule_.active) {
+        const Result<Ray> ro = OmniPixelToRayExtended(calibration_->omni, co[i].u_px, co[i].v_px);
+        const Result<Ray> rp = PerspPixelToRay(persp_turn_.model(), cp[j].u_px, cp[j].v_px);
+        if (!ro.ok() || !rp.ok()) continue;
+        const Result<Triangulation> tri = TriangulateRays(*rp, *ro, config_.triangulation);
+        if (!tri.ok() || !InField(tri->point.x(), tri->point.y())) continue;
       }
+      omni = co[i];
+      persp = cp[j];
+      return true;
     }
   }
-  if (PerspLooked(persp)) omni = BallDetection{};
+  return false;
 }
 
 // The persp choice passed the look check (a classifier ran on it: its centre lies in the image).
@@ -705,6 +718,11 @@ Status Pipeline::Process(const FrameInput& delivered, BallState& out) {
   }
   Lap(PipelineStage::kFilter);
   filter_.FillState(in.t_us, config_.predict_ahead_us, out);
+  if (!out.found) {
+    track_confirmed_ = false;
+  } else if ((out.flags & kFlagTriangulated) && !(meas_.filter_flags & kFlagOutlierRejected)) {
+    track_confirmed_ = true;
+  }
   WatchPerspTurn(rays, out);
   Lap(PipelineStage::kState);
   // 7. Colour adaptation from what both cameras agree on.
@@ -808,6 +826,10 @@ void Pipeline::DetectBalls(const FrameInput& in, BallState& out) {
   if (in.persp.valid() && cal.persp.valid) out.persp = Detect(persp_finder_, in.persp, pred_persp_);
   if (out.omni.found && out.persp.found && !pred_omni_.valid && !pred_persp_.valid) {
     ChooseStereoPair(out.omni, out.persp);
+  } else if (out.omni.found && out.persp.found && !track_confirmed_ &&
+             !StereoConsistent(out.omni, out.persp) && FindStereoPair(out.omni, out.persp, true)) {
+    // A track no frame of both cameras ever confirmed (started on one camera's decoy) yields to a
+    // pair that is one ball: the filter's gate then takes it as a jump, confirmed by the next.
   } else if (out.omni.found && out.persp.found && !pred_omni_.valid && pred_persp_.valid &&
              PerspLooked(out.persp) && !StereoConsistent(out.omni, out.persp)) {
     // A track the omni cannot see (above its horizon, behind a strut): an omni choice the
@@ -1049,6 +1071,7 @@ void Pipeline::CheckTrackInField(bool have_field_pose, BallState& out) {
       out.flags |= kFlagOutOfField;
     } else {
       filter_.Reset();
+      track_confirmed_ = false;
       ++stats_.tracks_dropped_out_of_field;
       out.found = false;
       out.flags |= kFlagOutOfField | kFlagLost;
@@ -1108,6 +1131,7 @@ void Pipeline::ReviewCandidates(const FrameInput& in, const BallState& out) {
                        field ? t->vx * c + t->vy * s : t->vy,
                        in.t_us};
   filter_.Reset();
+  track_confirmed_ = false;
   candidates_.Reset();
   ++stats_.track_handovers;
 }

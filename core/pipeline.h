@@ -205,6 +205,7 @@ class Pipeline {
   /// Forgets the track (e.g. between unrelated stills); calibration and tables stay.
   void ResetTrack() {
     filter_.Reset();
+    track_confirmed_ = false;
     candidates_.Reset();
     handover_ = Handover{};
     omni_watch_.Reset();
@@ -247,6 +248,7 @@ class Pipeline {
   bool LargerThanABall(float persp_radius_px, float range_m) const;
   bool StereoConsistent(const BallDetection& omni, const BallDetection& persp) const;
   void ChooseStereoPair(BallDetection& omni, BallDetection& persp) const;
+  bool FindStereoPair(BallDetection& omni, BallDetection& persp, bool in_field_only) const;
   bool PerspLooked(const BallDetection& persp) const;
   // BallFinder field predicates: image region -> the nearest ball position it can be -> field
   // test (no verdict when the ball may be in the air above a point inside).
@@ -310,6 +312,7 @@ class Pipeline {
   FieldFeatures features_;
   bool features_ready_ = false;
   bool track_seen_in_field_ = false;  // the current track was inside the field at some frame
+  bool track_confirmed_ = false;      // the current track took a triangulated frame
   ColorAdapter* adapter_ = nullptr;   // online colour adaptation, off when null
   float odometry_[3] = {};
   bool odometry_pending_ = false;
