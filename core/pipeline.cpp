@@ -182,6 +182,9 @@ void ShadedSideCentre(const OmniCalibration& cal, float radius_px, float lost_px
 // ray's whole sigma (the filter's cap): it binds where the hidden part is most of that sigma, as
 // in the omni elevation, which has no calibration term beside it.
 constexpr float kHiddenCentroidPerMissingRadius = 1.5f;
+// A track this young that no stereo frame confirmed yields to a pair of candidates that is one
+// ball (DetectBalls): a start on one camera's decoy is undone within its first frames.
+constexpr uint64_t kYoungTrackUs = 500000;
 
 // How far a detection lies from its camera's prediction, in ball radii there; unknown: +inf.
 float PredictionMisfit(const ImagePrediction& pred, const BallDetection& det, float radius_px) {
@@ -506,7 +509,7 @@ Status Pipeline::Init(const RigCalibration& calibration, const ColorLut& lut,
   candidates_.Configure(config_.candidates);
   candidates_.Reset();
   handover_ = Handover{};
-  track_confirmed_ = false;
+  track_confirmed_ = track_found_ = false;
   stats_ = PipelineStats{};
   pred_omni_ = pred_persp_ = ImagePrediction{};
   RefreshFieldRule();
@@ -719,9 +722,13 @@ Status Pipeline::Process(const FrameInput& delivered, BallState& out) {
   Lap(PipelineStage::kFilter);
   filter_.FillState(in.t_us, config_.predict_ahead_us, out);
   if (!out.found) {
-    track_confirmed_ = false;
-  } else if ((out.flags & kFlagTriangulated) && !(meas_.filter_flags & kFlagOutlierRejected)) {
-    track_confirmed_ = true;
+    track_confirmed_ = track_found_ = false;
+  } else {
+    if (!track_found_) track_since_us_ = in.t_us;
+    track_found_ = true;
+    if ((out.flags & kFlagTriangulated) && !(meas_.filter_flags & kFlagOutlierRejected)) {
+      track_confirmed_ = true;
+    }
   }
   WatchPerspTurn(rays, out);
   Lap(PipelineStage::kState);
@@ -827,9 +834,11 @@ void Pipeline::DetectBalls(const FrameInput& in, BallState& out) {
   if (out.omni.found && out.persp.found && !pred_omni_.valid && !pred_persp_.valid) {
     ChooseStereoPair(out.omni, out.persp);
   } else if (out.omni.found && out.persp.found && !track_confirmed_ &&
-             !StereoConsistent(out.omni, out.persp) && FindStereoPair(out.omni, out.persp, true)) {
-    // A track no frame of both cameras ever confirmed (started on one camera's decoy) yields to a
-    // pair that is one ball: the filter's gate then takes it as a jump, confirmed by the next.
+             in.t_us <= track_since_us_ + kYoungTrackUs && !StereoConsistent(out.omni, out.persp) &&
+             FindStereoPair(out.omni, out.persp, true)) {
+    // A young track no frame of both cameras confirmed (started on one camera's decoy) yields to
+    // a pair that is one ball: the filter's gate then takes it as a jump, confirmed by the next.
+    // An older one is left to ReviewCandidates (a ball seen by one camera for long is still one).
   } else if (out.omni.found && out.persp.found && !pred_omni_.valid && pred_persp_.valid &&
              PerspLooked(out.persp) && !StereoConsistent(out.omni, out.persp)) {
     // A track the omni cannot see (above its horizon, behind a strut): an omni choice the
@@ -1071,7 +1080,7 @@ void Pipeline::CheckTrackInField(bool have_field_pose, BallState& out) {
       out.flags |= kFlagOutOfField;
     } else {
       filter_.Reset();
-      track_confirmed_ = false;
+      track_confirmed_ = track_found_ = false;
       ++stats_.tracks_dropped_out_of_field;
       out.found = false;
       out.flags |= kFlagOutOfField | kFlagLost;
@@ -1131,7 +1140,7 @@ void Pipeline::ReviewCandidates(const FrameInput& in, const BallState& out) {
                        field ? t->vx * c + t->vy * s : t->vy,
                        in.t_us};
   filter_.Reset();
-  track_confirmed_ = false;
+  track_confirmed_ = track_found_ = false;
   candidates_.Reset();
   ++stats_.track_handovers;
 }

@@ -205,7 +205,7 @@ class Pipeline {
   /// Forgets the track (e.g. between unrelated stills); calibration and tables stay.
   void ResetTrack() {
     filter_.Reset();
-    track_confirmed_ = false;
+    track_confirmed_ = track_found_ = false;
     candidates_.Reset();
     handover_ = Handover{};
     omni_watch_.Reset();
@@ -313,6 +313,8 @@ class Pipeline {
   bool features_ready_ = false;
   bool track_seen_in_field_ = false;  // the current track was inside the field at some frame
   bool track_confirmed_ = false;      // the current track took a triangulated frame
+  bool track_found_ = false;          // the last frame had a state
+  uint64_t track_since_us_ = 0;       // when the current track was first found
   ColorAdapter* adapter_ = nullptr;   // online colour adaptation, off when null
   float odometry_[3] = {};
   bool odometry_pending_ = false;
