@@ -481,12 +481,6 @@ TEST_F(PipelineTest, LobIsTrackedThroughFlightAndBounces) {
     const cli::DemoTruth tr = cli::DemoLob(t_us * 1e-6, 0.7);
     const BallState s = Run(tr.p, t_us, true, true);
     ++frames;
-    printf("f%d %f %f %f omni %d %.1f %.1f persp %d %.1f %.1f flags %x\n", frames, s.x_m, s.y_m,
-           s.z_m, s.omni.found, s.omni.u_px, s.omni.v_px, s.persp.found, s.persp.u_px, s.persp.v_px,
-           s.flags);
-    printf("f%d %f %f %f omni %d %.1f %.1f persp %d %.1f %.1f flags %x\n", frames, s.x_m, s.y_m,
-           s.z_m, s.omni.found, s.omni.u_px, s.omni.v_px, s.persp.found, s.persp.u_px, s.persp.v_px,
-           s.flags);
     if (!s.found) continue;
     ++found;
     errs.push_back((Eigen::Vector3f(s.x_m, s.y_m, s.z_m) - tr.p).norm());
