@@ -608,8 +608,9 @@ BallDetection Pipeline::Detect(BallFinder& finder, const YuyvImage& img,
 }
 
 // Two detections are one ball when their rays meet and the persp region is no larger than a
-// ball at the range they meet at.
-bool Pipeline::StereoConsistent(const BallDetection& omni, const BallDetection& persp) const {
+// ball at the range they meet at; `point`, when given, gets where they meet.
+bool Pipeline::StereoConsistent(const BallDetection& omni, const BallDetection& persp,
+                                Eigen::Vector3f* point) const {
   const RigCalibration& cal = *calibration_;
   const Result<Ray> ro = OmniPixelToRayExtended(cal.omni, omni.u_px, omni.v_px);
   const Result<Ray> rp = PerspPixelToRay(persp_turn_.model(), persp.u_px, persp.v_px);
@@ -621,6 +622,7 @@ bool Pipeline::StereoConsistent(const BallDetection& omni, const BallDetection& 
   // gate is looser for the centroids of partly classified or cut balls, and far tighter than
   // the tracking gate (max_ray_gap_m), which would pair unrelated regions.
   if (tri->gap_m > kStereoGapM + kStereoGapPerM * range) return false;
+  if (point != nullptr) *point = tri->point;
   return !LargerThanABall(persp.radius_px, range);
 }
 
@@ -649,14 +651,9 @@ bool Pipeline::FindStereoPair(BallDetection& omni, BallDetection& persp, bool in
   const size_t no = omni_finder_.Candidates(co), np = persp_finder_.Candidates(cp);
   for (size_t j = 0; j < np; ++j) {  // persp candidates come largest first
     for (size_t i = 0; i < no; ++i) {
-      if (!StereoConsistent(co[i], cp[j])) continue;
-      if (in_field_only && field_rule_.active) {
-        const Result<Ray> ro = OmniPixelToRayExtended(calibration_->omni, co[i].u_px, co[i].v_px);
-        const Result<Ray> rp = PerspPixelToRay(persp_turn_.model(), cp[j].u_px, cp[j].v_px);
-        if (!ro.ok() || !rp.ok()) continue;
-        const Result<Triangulation> tri = TriangulateRays(*rp, *ro, config_.triangulation);
-        if (!tri.ok() || !InField(tri->point.x(), tri->point.y())) continue;
-      }
+      Eigen::Vector3f p;
+      if (!StereoConsistent(co[i], cp[j], &p)) continue;
+      if (in_field_only && field_rule_.active && !InField(p.x(), p.y())) continue;
       omni = co[i];
       persp = cp[j];
       return true;

@@ -246,7 +246,8 @@ class Pipeline {
  private:
   BallDetection Detect(BallFinder& finder, const YuyvImage& img, const ImagePrediction& pred);
   bool LargerThanABall(float persp_radius_px, float range_m) const;
-  bool StereoConsistent(const BallDetection& omni, const BallDetection& persp) const;
+  bool StereoConsistent(const BallDetection& omni, const BallDetection& persp,
+                        Eigen::Vector3f* point = nullptr) const;
   void ChooseStereoPair(BallDetection& omni, BallDetection& persp) const;
   bool FindStereoPair(BallDetection& omni, BallDetection& persp, bool in_field_only) const;
   bool PerspLooked(const BallDetection& persp) const;
