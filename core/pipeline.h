@@ -201,6 +201,15 @@ class Pipeline {
   const BallFilter& filter() const { return filter_; }
   /// The persp camera's turn estimate; its model() is the camera model the pipeline uses.
   const PerspTurnWatch& persp_turn() const { return persp_turn_; }
+  /// The calibration given to Init with the corrections in use folded in (the persp camera
+  /// turned by its estimate), for storing on the main computer's command; the calibration id
+  /// is left for the caller to renew. False (and `out` untouched) when nothing is corrected.
+  bool CorrectedCalibration(RigCalibration& out) const {
+    if (calibration_ == nullptr || persp_turn_.state() != CameraState::kCorrected) return false;
+    out = *calibration_;
+    out.persp = persp_turn_.model();
+    return true;
+  }
   const MeasurementInfo& last_measurement() const { return meas_; }
   /// Forgets the track (e.g. between unrelated stills); calibration and tables stay.
   void ResetTrack() {

@@ -411,7 +411,11 @@ Status MainLoop::Params::SetParam(uint16_t id, float value) {
       if (!(value == 0.0f || value == 1.0f)) return Status(StatusCode::kOutOfRange, "0 or 1");
       return loop_.SetAdaptation(value == 1.0f);
     case kParamSaveColorTable:
+    case kParamSaveCorrection:
       if (value != 1.0f) return Status(StatusCode::kOutOfRange, "1 saves");
+      // Both serialise into the upload buffer: an open upload or a pending teach keeps it.
+      if (loop_.UploadBufferBusy()) return Status(StatusCode::kUnavailable, "buffer in use");
+      if (id == kParamSaveCorrection) return loop_.StoreCorrection();
       return loop_.StoreTable(loop_.lut_) == protocol::CommandError::kNone
                  ? Status()
                  : Status(StatusCode::kInvalidArgument, "the table could not be stored");
@@ -453,6 +457,37 @@ protocol::CommandError MainLoop::StoreTable(const ColorLut& table) {
   status_.lut_id = id;
   status_.lut_state = static_cast<uint8_t>(BlobState::kOk);
   return protocol::CommandError::kNone;
+}
+
+// The calibration copy is built in the upload buffer's second half (no room for it on the
+// stack), serialised into the first, saved A/B with the second as the read-back check, then
+// parsed back as the calibration in use: the pipeline restarts from it, its turn estimate at 0.
+Status MainLoop::StoreCorrection() {
+  if (upload_buffer_.empty()) return Status(StatusCode::kUnimplemented, "no upload buffer");
+  if (!pipeline_ready_) return Status(StatusCode::kFailedPrecondition, "pipeline not running");
+  snapshot_.valid = false;
+  const std::span<uint8_t> blob = upload_buffer_.first(kBlobScratchBytes);
+  const std::span<uint8_t> verify = upload_buffer_.subspan(kBlobScratchBytes, kBlobScratchBytes);
+  RigCalibration& corrected = *new (verify.data()) RigCalibration;
+  if (!pipeline_.CorrectedCalibration(corrected)) {
+    return Status(StatusCode::kFailedPrecondition, "no correction stands");
+  }
+  // A new id, from the content: the old one names the calibration as it was measured.
+  corrected.calibration_id = 0;
+  Result<size_t> n = SerializeCalibration(corrected, blob);
+  if (!n.ok()) return n.status();
+  uint32_t id = Crc32(blob.first(*n));
+  if (id == calibration_.calibration_id) id ^= 1u;
+  corrected.calibration_id = id;
+  n = SerializeCalibration(corrected, blob);
+  if (!n.ok()) return n.status();
+  hal::BlobStore store(storage_, config_.calibration_slots[0], config_.calibration_slots[1],
+                       BlobKind::kCalibration, kCalibrationBlobVersion);
+  BV_TRY(store.Save(blob.first(*n), verify));
+  BV_TRY(ParseCalibration(blob.first(*n), calibration_));
+  status_.calibration_id = calibration_.calibration_id;
+  InitPipeline();
+  return Status();
 }
 
 Status MainLoop::Hints::SetRobotPose(bool known, float x_m, float y_m, float heading_rad) {

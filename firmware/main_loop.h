@@ -84,6 +84,10 @@ enum ParamId : uint16_t {
   // table survive a reboot.
   kParamColorAdaptation = 20,
   kParamSaveColorTable = 21,
+  // Writing 1 stores the calibration in use with the persp camera's correction folded in (A/B,
+  // as an upload, under a new calibration id) and makes it the calibration: only then does a
+  // correction survive a reboot. Refused while no correction stands.
+  kParamSaveCorrection = 22,
 };
 
 struct MainLoopConfig {
@@ -179,6 +183,7 @@ class MainLoop {
                  std::span<const uint8_t> data) override;
     Status Commit(protocol::UploadTarget target, uint32_t total_crc32) override;
     void Abort(protocol::UploadTarget target) override;
+    bool open() const { return length_ != 0; }
 
    private:
     MainLoop& loop_;
@@ -252,6 +257,10 @@ class MainLoop {
   protocol::CommandError TeachAndStore(const FrameInput& in, uint32_t& detail);
   /// `table` into the A/B slots as an upload would store it; its id becomes `lut_id`.
   protocol::CommandError StoreTable(const ColorLut& table);
+  /// kParamSaveCorrection: the corrected calibration stored A/B and activated.
+  Status StoreCorrection();
+  // The upload buffer holds an open upload or waits for a teach's pair.
+  bool UploadBufferBusy() const { return uploads_.open() || teach_.active; }
   Status SetAdaptation(bool on);
   struct CaptureState {
     bool active = false;

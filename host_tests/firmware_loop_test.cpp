@@ -3,9 +3,13 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstring>
+#include <functional>
 #include <memory>
 #include <vector>
+
+#include <Eigen/Geometry>
 
 #include "core/common/blob.h"
 #include "core/common/bytes.h"
@@ -23,6 +27,8 @@ namespace bv::fw {
 namespace {
 
 alignas(32) uint8_t g_frame[kFrameBytes];  // one grey frame shared by every fake pair
+// Pairs drawn one by one (FakeCamera::render), each camera its own image.
+alignas(32) uint8_t g_omni_frame[kFrameBytes], g_persp_frame[kFrameBytes];
 
 struct ScriptedPair {
   uint64_t t_us;
@@ -40,6 +46,8 @@ class FakeCamera : public hal::Camera {
   int held() const { return held_; }
   uint32_t bad_input = 0;  // what the camera layer says it refused
   int idle_polls = 1;      // kUnavailable answers before each pair (the loop must poll, not block)
+  // When set, draws pair k (counted from the first Add) into the two frames instead of g_frame.
+  std::function<void(size_t k, uint8_t* omni, uint8_t* persp)> render;
 
  private:
   Status DoStart() override { return Status(); }
@@ -47,10 +55,18 @@ class FakeCamera : public hal::Camera {
     if (next_ >= count_) return Status(StatusCode::kUnavailable, "end");
     if (idle_left_-- > 0) return Status(StatusCode::kUnavailable, "not yet");
     idle_left_ = idle_polls;
-    const ScriptedPair& p = script_[next_++];
+    const ScriptedPair& p = script_[next_];
+    const uint8_t* omni = g_frame;
+    const uint8_t* persp = g_frame;
+    if (render) {
+      render(next_, g_omni_frame, g_persp_frame);
+      omni = g_omni_frame;
+      persp = g_persp_frame;
+    }
+    ++next_;
     out = hal::FramePair{};
-    if (!(p.flags & hal::kPairOmniMissing)) out.omni = {g_frame, kFrameBytes, p.t_us, 0, true};
-    if (!(p.flags & hal::kPairPerspMissing)) out.persp = {g_frame, kFrameBytes, p.t_us, 0, true};
+    if (!(p.flags & hal::kPairOmniMissing)) out.omni = {omni, kFrameBytes, p.t_us, 0, true};
+    if (!(p.flags & hal::kPairPerspMissing)) out.persp = {persp, kFrameBytes, p.t_us, 0, true};
     out.exposure_us = p.t_us;
     out.flags = p.flags;
     out.dropped = p.dropped;
@@ -583,6 +599,10 @@ class MainLoopCommandsTest : public MainLoopTest {
   }
   void Upload(protocol::UploadTarget target, std::span<const uint8_t> blob, uint32_t crc) {
     UploadBegin(target, blob.size(), crc);
+    UploadChunks(target, blob);
+    UploadCommit(target);
+  }
+  void UploadChunks(protocol::UploadTarget target, std::span<const uint8_t> blob) {
     uint8_t p[5 + protocol::kMaxChunkBytes];
     for (size_t off = 0; off < blob.size(); off += protocol::kMaxChunkBytes) {
       const size_t n = std::min(protocol::kMaxChunkBytes, blob.size() - off);
@@ -592,6 +612,8 @@ class MainLoopCommandsTest : public MainLoopTest {
       chunk.Bytes(blob.subspan(off, n));
       Command(protocol::MsgType::kUploadChunk, chunk.written());
     }
+  }
+  void UploadCommit(protocol::UploadTarget target) {
     const uint8_t t = static_cast<uint8_t>(target);
     Command(protocol::MsgType::kUploadCommit, std::span<const uint8_t>(&t, 1));
   }
@@ -784,6 +806,35 @@ TEST_F(MainLoopCommandsTest, AdaptationNeedsAKnownModelAndOnlyASaveMakesItPerman
   Replies(acks, errors, statuses, code);
   EXPECT_EQ(errors, 2);
   EXPECT_EQ(code, static_cast<uint8_t>(protocol::CommandError::kBadValue));
+}
+
+// Both saves serialise into the upload buffer: while an upload is open they are refused as
+// busy, and the upload's bytes stay as they came.
+TEST_F(MainLoopCommandsTest, ASaveWhileAnUploadIsOpenIsBusyAndTheUploadGoesOn) {
+  Start();  // the built-in table in use; the upload differs from it (a save would show)
+  cli::FillBuiltInLut(lut_);
+  lut_.Set(0, ColorClass::kField);
+  const Result<size_t> n = SerializeLut(lut_, lut_blob_);
+  ASSERT_TRUE(n.ok());
+  const std::span<const uint8_t> b(lut_blob_, *n);
+  for (const uint16_t id : {kParamSaveColorTable, kParamSaveCorrection}) {
+    UploadBegin(protocol::UploadTarget::kLut, b.size(), Crc32(b));
+    UploadChunks(protocol::UploadTarget::kLut, b);
+    uint8_t p[6];
+    ByteWriter w(p);
+    w.U16(id);
+    w.F32(1.0f);
+    Command(protocol::MsgType::kSetParam, w.written());
+    UploadCommit(protocol::UploadTarget::kLut);
+  }
+  Drain();
+  int acks, errors, statuses;
+  uint8_t code = 0;
+  Replies(acks, errors, statuses, code);
+  EXPECT_EQ(errors, 2);
+  EXPECT_EQ(code, static_cast<uint8_t>(protocol::CommandError::kBusy));
+  EXPECT_EQ(loop_->status().lut_state, static_cast<uint8_t>(protocol::BlobState::kOk));
+  EXPECT_EQ(loop_->status().lut_id, lut_.Id());
 }
 
 TEST_F(MainLoopCommandsTest, TeachingAColourTheFieldHasIsRefused) {
@@ -1050,6 +1101,91 @@ TEST_F(MainLoopReadbackTest, TheTableAndTheCalibrationInUseComeBackByteForByte) 
   ASSERT_TRUE(ParseCalibration(blob, cal).ok());
   EXPECT_EQ(cal.calibration_id, loop_->status().calibration_id);
   EXPECT_EQ(crc, Crc32(blob));
+}
+
+// A persp camera turned by 1 deg after calibration: the pipeline corrects it in RAM, and only
+// kParamSaveCorrection stores the corrected calibration. It comes back over the link, survives
+// a reboot, and the watch, restarted from it, then sees no turn.
+TEST_F(MainLoopReadbackTest, ACorrectedTurnIsStoredOnlyOnCommandAndComesBack) {
+  uint32_t measured_id = 0;
+  InstallDemoBlobs(&measured_id);
+  const RigCalibration cal = cli::MakeDemoCalibration();
+  RigCalibration turned = cal;
+  constexpr float kRad = 3.14159265f / 180.0f;
+  turned.persp.R_robot_cam =
+      Eigen::AngleAxisf(1.0f * kRad, cal.persp.R_robot_cam.col(0)).toRotationMatrix() *
+      cal.persp.R_robot_cam;
+  const cli::DemoRenderer renderer(turned);
+  std::vector<uint8_t> omni, persp;
+  // A ball rolling in a zig-zag 1.5-4.5 m ahead (the samples must spread to fit pitch and yaw).
+  camera_.render = [&](size_t k, uint8_t* o, uint8_t* p) {
+    const float t = static_cast<float>(k) / 30.f;
+    const Eigen::Vector3f ball(-1.2f + 2.4f * std::fabs(std::fmod(t * 0.6f, 2.f) - 1.f),
+                               1.5f + 0.6f * t, 0.11f);
+    renderer.Render(ball, static_cast<uint32_t>(k + 1), omni, persp);
+    std::memcpy(o, omni.data(), kFrameBytes);
+    std::memcpy(p, persp.data(), kFrameBytes);
+  };
+  const auto save = [&] {
+    uint8_t b[6];
+    ByteWriter w(b);
+    w.U16(kParamSaveCorrection);
+    w.F32(1.0f);
+    Command(protocol::MsgType::kSetParam, w.written());
+  };
+  const auto pairs = [&](int from, int n) {
+    for (int k = from; k < from + n; ++k) camera_.Add({33333u * static_cast<uint64_t>(k), 0, 0});
+  };
+  Start();
+  save();  // nothing corrected yet
+  Answers a = Collect();
+  ASSERT_EQ(a.errors.size(), 1u);
+  EXPECT_EQ(a.errors[0].first, static_cast<uint8_t>(protocol::CommandError::kBadValue));
+  pairs(0, 60);
+  loop_->RunUntilFinished();
+  const PerspTurnWatch& watch = loop_->pipeline().persp_turn();
+  ASSERT_EQ(watch.state(), CameraState::kCorrected);
+  EXPECT_NEAR(watch.change_deg(), 1.0f, 0.2f);
+  EXPECT_EQ(loop_->status().calibration_id, measured_id) << "correcting stores nothing";
+  {
+    MainLoop reboot(camera_, uart_, clock_, storage_, reboot_tables_, scratch_);
+    ASSERT_TRUE(reboot.Init().ok());
+    EXPECT_EQ(reboot.status().calibration_id, measured_id);
+  }
+  uart_.TakeBytes();
+  save();
+  a = Collect();
+  EXPECT_TRUE(a.errors.empty());
+  const uint32_t stored_id = loop_->status().calibration_id;
+  EXPECT_NE(stored_id, measured_id);
+  EXPECT_EQ(watch.state(), CameraState::kAsCalibrated) << "the stored model is the new baseline";
+  std::vector<uint8_t> blob;
+  uint32_t crc = 0;
+  ASSERT_TRUE(ReadAll(protocol::UploadTarget::kCalibration, blob, crc));
+  RigCalibration back;
+  ASSERT_TRUE(ParseCalibration(blob, back).ok());
+  EXPECT_EQ(back.calibration_id, stored_id);
+  const auto angle_deg = [&](const Eigen::Matrix3f& r1, const Eigen::Matrix3f& r2) {
+    return Eigen::AngleAxisf(r1.transpose() * r2).angle() / kRad;
+  };
+  EXPECT_LT(angle_deg(back.persp.R_robot_cam, turned.persp.R_robot_cam), 0.2f);
+  EXPECT_NEAR(angle_deg(back.persp.R_robot_cam, cal.persp.R_robot_cam), 1.0f, 0.2f);
+  EXPECT_EQ(back.omni.center_u, cal.omni.center_u) << "the rest as calibrated";
+  {
+    MainLoop reboot(camera_, uart_, clock_, storage_, reboot_tables_, scratch_);
+    ASSERT_TRUE(reboot.Init().ok());
+    EXPECT_EQ(reboot.status().calibration_id, stored_id);
+  }
+  // Frames of the same turned camera: as calibrated now.
+  pairs(60, 60);
+  bool flagged = false;
+  while (!camera_.Finished()) {
+    loop_->Poll();
+    flagged |= watch.state() != CameraState::kAsCalibrated;
+  }
+  EXPECT_FALSE(flagged);
+  EXPECT_GT(watch.samples(), 12);
+  EXPECT_LT(watch.change_deg(), 0.25f);
 }
 
 TEST_F(MainLoopReadbackTest, RefusalsNameTheProblemAndALaterReadFromZeroWorks) {

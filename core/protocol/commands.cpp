@@ -153,6 +153,7 @@ CommandError CommandHandler::Dispatch(const FrameView& frame, CommandResult& res
       if (!std::isfinite(value)) return CommandError::kBadValue;
       const Status s = params_.SetParam(id, value);
       if (s.code() == StatusCode::kNotFound) return CommandError::kUnknownParam;
+      if (s.code() == StatusCode::kUnavailable) return CommandError::kBusy;
       return s.ok() ? CommandError::kNone : CommandError::kBadValue;
     }
     case MsgType::kUploadBegin:

@@ -78,7 +78,8 @@ class UploadSink {
 class ParamSink {
  public:
   virtual ~ParamSink() = default;
-  /// kNotFound for an unknown id, kOutOfRange / kInvalidArgument for a bad value.
+  /// kNotFound for an unknown id (error 9), kUnavailable when not now (12, busy); any other
+  /// error is a bad value (10).
   virtual Status SetParam(uint16_t id, float value) = 0;
 };
 

@@ -16,6 +16,9 @@ TEACH_FLOOR, TEACH_OMNI_PIXEL, TEACH_PERSP_PIXEL = 0, 1, 2
 CAPTURE_FULL, CAPTURE_HALF, CAPTURE_QUARTER, CAPTURE_SCANLINES = 0, 1, 2, 3
 CAPTURE_OMNI, CAPTURE_PERSP = 1, 2
 TARGET_CALIBRATION, TARGET_LUT, TARGET_CLASSIFIER = 1, 2, 3
+# Parameters (firmware/main_loop.h ParamId; docs/protocol.md).
+PARAM_FRAME_PERIOD_US, PARAM_STATUS_INTERVAL_US = 1, 2
+PARAM_COLOR_ADAPTATION, PARAM_SAVE_COLOR_TABLE, PARAM_SAVE_CORRECTION = 20, 21, 22
 MAX_CHUNK = 512
 ERRORS = {1: "unknown command", 2: "bad length", 3: "bad target", 4: "no upload", 5: "bad offset",
           6: "too large", 7: "verify failed", 8: "storage failed", 9: "unknown parameter",
@@ -32,6 +35,13 @@ def request_status(seq: int) -> bytes:
 
 def set_param(seq: int, param_id: int, value: float) -> bytes:
     return encode_frame(SET_PARAM, seq, struct.pack("<Hf", param_id, value))
+
+
+def save_correction(seq: int) -> bytes:
+    """Stores the calibration in use with the camera correction the coprocessor estimated
+    (a turned persp camera) folded in, under a new calibration id; error 10 while none stands,
+    12 while an upload is open or a teach is pending. Read it back with read_blob."""
+    return set_param(seq, PARAM_SAVE_CORRECTION, 1.0)
 
 
 def set_field_half(seq: int, half: int) -> bytes:

@@ -171,6 +171,14 @@ class CommandsTest(unittest.TestCase):
         self.assertEqual([m[1] for m in msgs], list(range(10, 15)))
         self.assertEqual(b"".join(m[2][5:] for m in msgs[1:4]), blob)
 
+    def test_save_correction_is_parameter_22_set_to_one(self):
+        from ballvision_link import commands
+        msgs = list(Decoder().feed(commands.save_correction(7)))
+        self.assertEqual(len(msgs), 1)
+        self.assertEqual(msgs[0][0], 0x21)
+        self.assertEqual(msgs[0][1], 7)
+        self.assertEqual(struct.unpack("<Hf", msgs[0][2]), (22, 1.0))
+
     def test_pose_hint_commands(self):
         from ballvision_link import commands
         frames = [commands.set_field_half(1, -1), commands.odometry(2, 0.1, 0.0, -0.5),
