@@ -465,11 +465,13 @@ Status Pipeline::Init(const RigCalibration& calibration, const ColorLut& lut,
   features_ready_ = false;
   omni_watch_.Clear();  // a camera without calibration is not watched
   persp_watch_.Clear();
+  mirror_rim_.Clear();
   persp_turn_.Init(calibration.persp, config_.persp_turn);
   BV_TRY(field_model_.Init(calibration.field));
   if (calibration.omni.valid) {
     const OmniScanConfig scan = PipelineOmniScan(calibration.omni, config_);
     omni_outer_radius_px_ = scan.outer_radius_px;
+    mirror_rim_.Init(calibration.omni, scan.outer_radius_px, config_.mirror_rim);
     BV_TRY(tables_.omni.BuildOmni(scan, kFrameWidth, kFrameHeight));
     BV_TRY(omni_watch_.Build(tables_.omni, config_.watch));
     if (config_.field_features) {
@@ -685,6 +687,7 @@ Status Pipeline::Process(const FrameInput& delivered, BallState& out) {
   used_ = delivered;  // a member, not a stack copy: the device's stack budget is tight
   if (!omni_watch_.Observe(used_.omni, used_.omni_t_us)) used_.omni = YuyvImage{};
   if (!persp_watch_.Observe(used_.persp, used_.persp_t_us)) used_.persp = YuyvImage{};
+  mirror_rim_.Observe(used_.omni);
   // Turned beyond correction: not used either.
   if (persp_turn_.state() == CameraState::kUnusable) used_.persp = YuyvImage{};
   const FrameInput& in = used_;
@@ -756,7 +759,10 @@ void Pipeline::WatchPerspTurn(const CameraRays& rays, BallState& out) {
       const float angular = out.persp.angular_radius_rad > 0.f ? out.persp.angular_radius_rad
                                                                : AngleBetween(raw->dir, rim->dir);
       const float size_range = calibration_->ball_radius_m / std::sin(std::max(angular, 1e-4f));
-      persp_turn_.AddFloorSample(rays.omni, *raw, size_range, calibration_->ball_radius_m);
+      // While the rim says the mirror moved, the omni floor point would turn an intact persp
+      // camera: the sample measures the omni camera only.
+      persp_turn_.AddFloorSample(rays.omni, *raw, size_range, calibration_->ball_radius_m,
+                                 mirror_rim_.state() != CameraState::kAsCalibrated);
     }
   }
   // The worse of the frame watch's state and the geometry's.
@@ -766,8 +772,25 @@ void Pipeline::WatchPerspTurn(const CameraRays& rays, BallState& out) {
     c.confidence = confidence;
   };
   join(out.persp_check, persp_turn_.state(), persp_turn_.change_deg(), persp_turn_.confidence());
-  join(out.omni_check, persp_turn_.omni_state(), persp_turn_.omni_change_deg(),
-       persp_turn_.omni_confidence());
+  if (persp_turn_.omni_state() != CameraState::kAsCalibrated ||
+      mirror_rim_.state() == CameraState::kAsCalibrated) {
+    join(out.omni_check, persp_turn_.omni_state(), persp_turn_.omni_change_deg(),
+         persp_turn_.omni_confidence());
+  } else {
+    join(out.omni_check, CameraState::kChanged, mirror_rim_.change_deg(),
+         static_cast<float>(mirror_rim_.last_points()) / MirrorRimWatch::kDirections);
+  }
+}
+
+float Pipeline::OmniKnockedRad() const {
+  // The balls measure the rays' own error; the rim's is a proxy, used until they do.
+  float deg = 0.f;
+  if (persp_turn_.omni_state() == CameraState::kChanged) {
+    deg = persp_turn_.omni_change_deg();
+  } else if (mirror_rim_.state() == CameraState::kChanged) {
+    deg = mirror_rim_.change_deg();
+  }
+  return deg * kPi / 180.0f;
 }
 
 void Pipeline::Lap(PipelineStage done) {
@@ -1000,8 +1023,7 @@ void Pipeline::BuildObservation(const CameraRays& rays, BallState& out, BallObse
     const float cut_px = rays.omni_cut ? 0.5f * out.omni.radius_px : 0.f;
     OmniRaySigma(cal.omni, out.omni, rays.omni, cut_px + hidden_px,
                  cut_px + kHiddenCentroidPerMissingRadius * hidden_px, config_, omni_ray);
-    if (persp_turn_.omni_state() == CameraState::kChanged) {  // a knocked mirror: down-weighted
-      const float change_rad = persp_turn_.omni_change_deg() * kPi / 180.0f;
+    if (const float change_rad = OmniKnockedRad(); change_rad > 0.f) {  // down-weighted
       omni_ray.sigma_v_rad = std::hypot(omni_ray.sigma_v_rad, change_rad);
       omni_ray.bias_v_rad = std::hypot(omni_ray.bias_v_rad, change_rad);
     }

@@ -18,6 +18,7 @@
 #include "core/field/field_model.h"
 #include "core/field/localise.h"
 #include "core/health/camera_watch.h"
+#include "core/health/mirror_rim.h"
 #include "core/health/persp_turn.h"
 #include "core/scanline/scanline.h"
 #include "core/triangulation/triangulation.h"
@@ -91,6 +92,7 @@ struct PipelineConfig {
   CandidateTracksConfig candidates;  // the other ball candidates, tracked beside the filter
   CameraWatchConfig watch;           // frozen, blind and missing cameras (core/health)
   PerspTurnConfig persp_turn;        // a turned persp camera, from balls on the floor (core/health)
+  MirrorRimConfig mirror_rim;        // a knocked mirror, from its rim in the omni image
 };
 
 struct FrameInput {
@@ -201,6 +203,8 @@ class Pipeline {
   const BallFilter& filter() const { return filter_; }
   /// The persp camera's turn estimate; its model() is the camera model the pipeline uses.
   const PerspTurnWatch& persp_turn() const { return persp_turn_; }
+  /// The knocked-mirror watch on the omni image's rim.
+  const MirrorRimWatch& mirror_rim() const { return mirror_rim_; }
   /// The calibration given to Init with the corrections in use folded in (the persp camera
   /// turned by its estimate), for storing on the main computer's command; the calibration id
   /// is left for the caller to renew. False (and `out` untouched) when nothing is corrected.
@@ -220,6 +224,7 @@ class Pipeline {
     omni_watch_.Reset();
     persp_watch_.Reset();
     persp_turn_.Reset();
+    mirror_rim_.Reset();
   }
   /// Online colour adaptation (core/color_lut/color_adapt.h), fed with the detections both
   /// cameras confirm; null turns it off. The adapter must outlive the pipeline's use of it.
@@ -311,6 +316,9 @@ class Pipeline {
   BallFilter filter_;
   CameraWatch omni_watch_, persp_watch_;
   PerspTurnWatch persp_turn_;
+  MirrorRimWatch mirror_rim_;
+  // The omni camera's knocked-mirror evidence (rim or ball samples) as one change (rad); 0: none.
+  float OmniKnockedRad() const;
   FrameInput used_;  // this pair's frames as Process() uses them (refused ones left out)
   ImagePrediction pred_omni_, pred_persp_;
   MeasurementInfo meas_;

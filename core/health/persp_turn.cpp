@@ -43,7 +43,7 @@ void PerspTurnWatch::Reset() {
 }
 
 void PerspTurnWatch::AddFloorSample(const Ray& omni, const Ray& persp, float size_range_m,
-                                    float ball_radius_m) {
+                                    float ball_radius_m, bool omni_suspect) {
   if (!config_.enabled || !calibrated_.valid) return;
   if (!(omni.dir.z() < -1e-3f)) return;  // does not come down to the floor plane
   const float t = (ball_radius_m - omni.origin.z()) / omni.dir.z();
@@ -54,7 +54,7 @@ void PerspTurnWatch::AddFloorSample(const Ray& omni, const Ray& persp, float siz
   if (!(range >= config_.min_range_m && range <= config_.max_range_m)) return;
   AddOmniSample(omni, persp, p, to_p, size_range_m, ball_radius_m);
   // A knocked mirror moves P: the persp camera is not to be turned after it.
-  if (omni_state_ != CameraState::kAsCalibrated) return;
+  if (omni_state_ != CameraState::kAsCalibrated || omni_suspect) return;
   if (!(std::fabs(to_p.norm() / size_range_m - 1.0f) <= config_.floor_size_gate)) return;
   const Eigen::Vector3f d = persp.dir.normalized();
   if (!d.allFinite() || (p - last_point_).norm() < config_.min_spacing_m) return;

@@ -54,7 +54,10 @@ class PerspTurnWatch {
   /// persp camera's range to it from its apparent size. Ignored unless the omni ray comes down
   /// to the floor plane at a point whose range agrees with the size's (floor_size_gate), within
   /// the config's ranges and min_spacing_m from the last sample. Re-estimates the turn.
-  void AddFloorSample(const Ray& omni, const Ray& persp, float size_range_m, float ball_radius_m);
+  /// `omni_suspect`: other evidence says the mirror moved (its rim): the sample feeds the omni
+  /// side only.
+  void AddFloorSample(const Ray& omni, const Ray& persp, float size_range_m, float ball_radius_m,
+                      bool omni_suspect = false);
   /// kAsCalibrated, kCorrected, kChanged or kUnusable (from the samples so far).
   CameraState state() const { return state_; }
   /// Estimated turn: pitch about the camera's right axis, yaw about the robot's vertical (rad,

@@ -1,0 +1,174 @@
+#include "core/health/mirror_rim.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace bv {
+namespace {
+
+constexpr float kDegPerRad = 57.29578f;
+
+float Median(float* v, int n) {
+  std::sort(v, v + n);
+  return n % 2 ? v[n / 2] : 0.5f * (v[n / 2 - 1] + v[n / 2]);
+}
+
+}  // namespace
+
+void MirrorRimWatch::Init(const OmniCalibration& cal, float outer_radius_px,
+                          const MirrorRimConfig& config) {
+  cal_ = &cal;
+  config_ = config;
+  outer_px_ = outer_radius_px;
+  for (int k = 0; k < kDirections; ++k) {
+    const float a = 6.2831853f * static_cast<float>(k) / kDirections;
+    cos_[k] = std::cos(a);
+    sin_[k] = std::sin(a);
+  }
+  Reset();
+}
+
+void MirrorRimWatch::Reset() {
+  frame_ = count_ = next_ = last_points_ = 0;
+  offset_px_ = change_deg_ = last_rms_px_ = 0;
+  state_ = CameraState::kAsCalibrated;
+}
+
+void MirrorRimWatch::Observe(const YuyvImage& omni) {
+  if (!config_.enabled || cal_ == nullptr || !cal_->valid || !omni.valid() || !(outer_px_ > 0.f)) {
+    return;
+  }
+  if (frame_++ % std::max(config_.every_frames, 1) != 0) return;
+  float du = 0, dv = 0;
+  if (!Measure(omni, du, dv)) return;
+  du_[next_] = du;
+  dv_[next_] = dv;
+  next_ = (next_ + 1) % kHistory;
+  if (count_ < kHistory) ++count_;
+  Decide();
+}
+
+// Inward along each direction to the first pixel at or above bright_y (sub-pixel, as the
+// calibration finds it on its mean image); a circle through the points by linear least squares,
+// twice more without the points more than 2 px (then 1 px) off it.
+bool MirrorRimWatch::Measure(const YuyvImage& omni, float& du, float& dv) {
+  const float cu = cal_->center_u, cv = cal_->center_v;
+  const int y0 = config_.bright_y;
+  float* pu = pu_;  // members, not stack: Process() inlines this on the device's tight stack
+  float* pv = pv_;
+  int n = 0;
+  const float r0 = outer_px_ + config_.search_out_px;
+  const int steps = static_cast<int>(config_.search_out_px + config_.search_in_px);
+  for (int k = 0; k < kDirections; ++k) {
+    // Nearest pixels one pixel apart (~10 instructions each on the M7); the edge between the
+    // last dark and the first bright one by their luma.
+    const float c = cos_[k], sn = sin_[k];
+    float u = cu + r0 * c + 0.5f, v = cv + r0 * sn + 0.5f;  // +0.5: truncation rounds
+    int prev = -1;
+    for (int i = 0; i <= steps; ++i, u -= c, v -= sn) {
+      if (!(u >= 0.f && v >= 0.f && u < static_cast<float>(omni.width) &&
+            v < static_cast<float>(omni.height))) {
+        prev = -1;  // outside the image: nothing seen yet
+        continue;
+      }
+      const int y = omni.data[static_cast<ptrdiff_t>(static_cast<int>(v)) * omni.stride_bytes +
+                              2 * static_cast<int>(u)];
+      if (y >= y0) {
+        if (prev < 0) break;  // bright from the first sample in the image: not the rim's edge
+        const float rr = r0 - static_cast<float>(i) +
+                         static_cast<float>(y - y0) / static_cast<float>(std::max(y - prev, 1));
+        pu[n] = cu + rr * c;
+        pv[n] = cv + rr * sn;
+        ++n;
+        break;
+      }
+      prev = y;
+    }
+  }
+  bool* keep = keep_;
+  for (int i = 0; i < n; ++i) keep[i] = true;
+  float fu = cu, fv = cv, radius = 0.f, rms = 0.f;
+  int used = 0;
+  for (int pass = 0; pass < 3; ++pass) {
+    // (u - a)^2 + (v - b)^2 = R^2 as 2 a u + 2 b v + c = u^2 + v^2, centred on the calibration
+    // for conditioning.
+    double s[3][4] = {};
+    used = 0;
+    for (int i = 0; i < n; ++i) {
+      if (!keep[i]) continue;
+      const double x = pu[i] - cu, y = pv[i] - cv, row[4] = {2 * x, 2 * y, 1, x * x + y * y};
+      for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 4; ++b) s[a][b] += row[a] * row[b];
+      ++used;
+    }
+    if (used < config_.min_points) break;
+    // 3x3 solve by Cramer's rule.
+    const auto det3 = [](double m00, double m01, double m02, double m10, double m11, double m12,
+                         double m20, double m21, double m22) {
+      return m00 * (m11 * m22 - m12 * m21) - m01 * (m10 * m22 - m12 * m20) +
+             m02 * (m10 * m21 - m11 * m20);
+    };
+    const double d =
+        det3(s[0][0], s[0][1], s[0][2], s[1][0], s[1][1], s[1][2], s[2][0], s[2][1], s[2][2]);
+    if (!(std::fabs(d) > 1e-9)) {
+      used = 0;
+      break;
+    }
+    const double a =
+        det3(s[0][3], s[0][1], s[0][2], s[1][3], s[1][1], s[1][2], s[2][3], s[2][1], s[2][2]) / d;
+    const double b =
+        det3(s[0][0], s[0][3], s[0][2], s[1][0], s[1][3], s[1][2], s[2][0], s[2][3], s[2][2]) / d;
+    const double c =
+        det3(s[0][0], s[0][1], s[0][3], s[1][0], s[1][1], s[1][3], s[2][0], s[2][1], s[2][3]) / d;
+    const double r2 = c + a * a + b * b;
+    if (!(r2 > 0.0)) {
+      used = 0;
+      break;
+    }
+    fu = cu + static_cast<float>(a);
+    fv = cv + static_cast<float>(b);
+    radius = static_cast<float>(std::sqrt(r2));
+    const float gate = pass == 0 ? 2.0f : 1.0f;
+    double sum2 = 0;
+    int kept = 0;
+    for (int i = 0; i < n; ++i) {
+      const float e = std::hypot(pu[i] - fu, pv[i] - fv) - radius;
+      if (keep[i]) sum2 += static_cast<double>(e) * e;
+      keep[i] = std::fabs(e) <= gate;
+      kept += keep[i];
+    }
+    rms = static_cast<float>(std::sqrt(sum2 / used));
+    if (kept < config_.min_points) break;
+  }
+  last_points_ = used >= config_.min_points ? used : 0;
+  last_rms_px_ = rms;
+  if (last_points_ == 0 || !(rms <= config_.max_fit_rms_px)) return false;
+  du = fu - cu;
+  dv = fv - cv;
+  return std::isfinite(du) && std::isfinite(dv);
+}
+
+void MirrorRimWatch::Decide() {
+  float us[kHistory], vs[kHistory];
+  for (int i = 0; i < count_; ++i) us[i] = du_[i], vs[i] = dv_[i];
+  const float mu = Median(us, count_), mv = Median(vs, count_);
+  offset_px_ = std::hypot(mu, mv);
+  // What the offset turns a ray by: the calibrated rays of a pixel at half the usable radius in
+  // the offset's direction and of that pixel moved by it.
+  change_deg_ = 0.f;
+  if (offset_px_ > 1e-3f) {
+    const float eu = mu / offset_px_, ev = mv / offset_px_, r = 0.5f * outer_px_;
+    const float u0 = cal_->center_u + r * eu, v0 = cal_->center_v + r * ev;
+    const Result<Ray> a = OmniPixelToRay(*cal_, u0, v0);
+    const Result<Ray> b = OmniPixelToRay(*cal_, u0 + mu, v0 + mv);
+    if (a.ok() && b.ok()) {
+      const float c = std::clamp(a->dir.normalized().dot(b->dir.normalized()), -1.f, 1.f);
+      change_deg_ = std::acos(c) * kDegPerRad;
+    }
+  }
+  if (count_ < 3) return;  // one odd frame decides nothing
+  const float gate = state_ == CameraState::kAsCalibrated ? config_.flag_px : config_.clear_px;
+  state_ = offset_px_ >= gate ? CameraState::kChanged : CameraState::kAsCalibrated;
+}
+
+}  // namespace bv

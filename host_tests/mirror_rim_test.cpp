@@ -1,0 +1,171 @@
+// A knocked mirror told from its rim in the omni image (core/health/mirror_rim.h, issue 40 B4):
+// the rendered reference rig's frames as they are (never flagged, the rim within a pixel or two
+// of the calibration's centre) and shifted as the knock of the 1.5 deg / 2 mm renders shifted
+// them (flagged by the third measurement); frames without a rim decide nothing.
+#include "core/health/mirror_rim.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "core/pipeline.h"
+#include "hal/host/sequence.h"
+#include "tools/ballvision/calib_io.h"
+#include "tools/ballvision/run_common.h"
+
+namespace bv {
+namespace {
+
+const std::string kRefCalib = std::string(BV_TEST_DATA_DIR) + "/reference_rig_calib.json";
+constexpr float kReferenceOuterPx = 219.0f;  // the reference calibration's usable circle
+
+struct Sim {
+  RigCalibration cal;
+  host::Sequence seq;
+  bool ok = false;
+};
+
+Sim LoadSim(const char* scene) {
+  Sim s;
+  std::string err;
+  s.ok = std::filesystem::exists(kRefCalib) && cli::LoadCalibrationFile(kRefCalib, s.cal, err) &&
+         host::LoadSequence(std::string(BV_SHARED_DATA_DIR) + "/sim/" + scene, s.seq, err);
+  return s;
+}
+
+// The frame moved by (du, dv) pixels (du even: YUYV pairs stay whole), black where it came from
+// outside. The knocked renders' rim moved by (-11.4, +4.2) px.
+std::vector<uint8_t> Shifted(const std::vector<uint8_t>& f, int w, int h, int du, int dv) {
+  std::vector<uint8_t> out(f.size());
+  for (size_t i = 0; i < out.size(); i += 2) out[i] = 0, out[i + 1] = 128;
+  for (int v = 0; v < h; ++v) {
+    const int sv = v - dv;
+    if (sv < 0 || sv >= h) continue;
+    for (int u = 0; u < w; ++u) {
+      const int su = u - du;
+      if (su < 0 || su >= w) continue;
+      out[(static_cast<size_t>(v) * w + u) * 2] = f[(static_cast<size_t>(sv) * w + su) * 2];
+      out[(static_cast<size_t>(v) * w + u) * 2 + 1] = f[(static_cast<size_t>(sv) * w + su) * 2 + 1];
+    }
+  }
+  return out;
+}
+
+struct Seen {
+  float max_offset_px = 0, max_rms_px = 0;
+  int measured = 0, flagged_at = -1;
+};
+
+Seen Watch(const Sim& s, int du, int dv, MirrorRimWatch& watch) {
+  Seen seen;
+  std::string err;
+  for (size_t i = 0; i < s.seq.entries.size(); ++i) {
+    std::vector<uint8_t> f;
+    int w = 0, h = 0;
+    EXPECT_TRUE(host::LoadYuyv(s.seq.entries[i].omni_path, f, w, h, err)) << err;
+    if (du != 0 || dv != 0) f = Shifted(f, w, h, du, dv);
+    const int before = watch.last_points();
+    const float rms_before = watch.last_rms_px();
+    watch.Observe(MakeYuyvImage(f.data(), w, h));
+    if (watch.last_points() != before || watch.last_rms_px() != rms_before) ++seen.measured;
+    seen.max_offset_px = std::max(seen.max_offset_px, watch.offset_px());
+    seen.max_rms_px = std::max(seen.max_rms_px, watch.last_rms_px());
+    if (watch.state() == CameraState::kChanged && seen.flagged_at < 0) {
+      seen.flagged_at = static_cast<int>(i);
+    }
+  }
+  return seen;
+}
+
+TEST(MirrorRim, TheRenderedRigsRimStaysAtTheCalibratedCentre) {
+  for (const char* scene : {"bounce", "clutter", "static_grid"}) {
+    const Sim s = LoadSim(scene);
+    if (!s.ok) GTEST_SKIP() << "no sim/" << scene << " or reference calibration";
+    MirrorRimWatch watch;
+    watch.Init(s.cal.omni, kReferenceOuterPx, MirrorRimConfig{});
+    const Seen seen = Watch(s, 0, 0, watch);
+    std::printf("%s: %d measurements, rim centre offset at most %.2f px, fit rms at most %.2f px\n",
+                scene, seen.measured, seen.max_offset_px, seen.max_rms_px);
+    EXPECT_GE(seen.measured, 5);
+    EXPECT_EQ(seen.flagged_at, -1) << scene;
+    EXPECT_LT(seen.max_offset_px, 2.0f) << scene;
+  }
+}
+
+TEST(MirrorRim, ARimMovedAsAKnockMovesItIsFlaggedAndClearsWhenItIsBack) {
+  const Sim s = LoadSim("clutter");
+  if (!s.ok) GTEST_SKIP() << "no sim/clutter or reference calibration";
+  MirrorRimWatch watch;
+  watch.Init(s.cal.omni, kReferenceOuterPx, MirrorRimConfig{});
+  const Seen knocked = Watch(s, -12, 4, watch);
+  std::printf("rim moved (-12, 4) px: flagged at frame %d, offset %.2f px, change %.2f deg\n",
+              knocked.flagged_at, watch.offset_px(), watch.change_deg());
+  EXPECT_GE(knocked.flagged_at, 0);
+  EXPECT_LE(knocked.flagged_at, 2 * MirrorRimConfig{}.every_frames);  // the third measurement
+  EXPECT_NEAR(watch.offset_px(), std::hypot(12.f, 4.f), 1.0f);
+  EXPECT_GT(watch.change_deg(), 1.0f);
+  // Back in place (the same watch): cleared once the median of its history is.
+  const Seen back = Watch(s, 0, 0, watch);
+  EXPECT_EQ(watch.state(), CameraState::kAsCalibrated);
+  EXPECT_LT(watch.offset_px(), 2.0f);
+  (void)back;
+}
+
+TEST(MirrorRim, AFrameWithoutARimDecidesNothing) {
+  const Sim s = LoadSim("clutter");
+  if (!s.ok) GTEST_SKIP() << "no sim/clutter or reference calibration";
+  MirrorRimWatch watch;
+  MirrorRimConfig config;
+  config.every_frames = 1;
+  watch.Init(s.cal.omni, kReferenceOuterPx, config);
+  std::vector<uint8_t> f(640 * 480 * 2);
+  for (const uint8_t y : {uint8_t{0}, uint8_t{200}}) {  // black; bright to the image's edge
+    for (size_t i = 0; i < f.size(); i += 2) f[i] = y, f[i + 1] = 128;
+    for (int k = 0; k < 5; ++k) watch.Observe(MakeYuyvImage(f.data(), 640, 480));
+    EXPECT_EQ(watch.last_points(), 0);
+    EXPECT_EQ(watch.state(), CameraState::kAsCalibrated);
+  }
+  watch.Observe(YuyvImage{});  // no frame at all
+  EXPECT_EQ(watch.state(), CameraState::kAsCalibrated);
+}
+
+// The pipeline reports it in the omni check (state 2) and leaves the persp turn alone.
+TEST(MirrorRim, ThePipelineFlagsTheOmniCameraAndDoesNotTurnThePersp) {
+  const Sim s = LoadSim("clutter");
+  if (!s.ok) GTEST_SKIP() << "no sim/clutter or reference calibration";
+  std::string err, used;
+  auto lut = std::make_unique<ColorLut>();
+  ASSERT_TRUE(cli::LoadLutOrDefault("", kRefCalib, *lut, used, err)) << err;
+  auto pipeline = std::make_unique<OwnedPipeline>();
+  ASSERT_TRUE(pipeline->Init(s.cal, *lut, PipelineConfig{}).ok());
+  int flagged_at = -1;
+  for (size_t i = 0; i < s.seq.entries.size(); ++i) {
+    std::vector<uint8_t> omni, persp;
+    int w = 0, h = 0, pw = 0, ph = 0;
+    ASSERT_TRUE(host::LoadYuyv(s.seq.entries[i].omni_path, omni, w, h, err)) << err;
+    ASSERT_TRUE(host::LoadYuyv(s.seq.entries[i].persp_path, persp, pw, ph, err)) << err;
+    omni = Shifted(omni, w, h, -12, 4);
+    FrameInput in;
+    in.t_us = s.seq.entries[i].t_us;
+    in.omni = MakeYuyvImage(omni.data(), w, h);
+    in.persp = MakeYuyvImage(persp.data(), pw, ph);
+    BallState out;
+    ASSERT_TRUE(pipeline->Process(in, out).ok());
+    if (out.omni_check.state == CameraState::kChanged && flagged_at < 0) {
+      flagged_at = static_cast<int>(i);
+      EXPECT_GT(out.omni_check.change_deg, 1.0f);
+    }
+    EXPECT_EQ(out.persp_check.state, CameraState::kAsCalibrated) << i;
+  }
+  EXPECT_GE(flagged_at, 0);
+  EXPECT_LE(flagged_at, 8);
+  EXPECT_EQ(pipeline->persp_turn().samples(), 0);
+}
+
+}  // namespace
+}  // namespace bv
