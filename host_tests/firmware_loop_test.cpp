@@ -580,6 +580,13 @@ class MainLoopCommandsTest : public MainLoopTest {
     ASSERT_TRUE(n.ok());
     uart_.Feed(std::span<const uint8_t>(wire, *n));
   }
+  void SetParam(uint16_t id, float value) {
+    uint8_t p[6];
+    ByteWriter w(p);
+    w.U16(id);
+    w.F32(value);
+    Command(protocol::MsgType::kSetParam, w.written());
+  }
   // The teach command: the ball at (a, b), a floor point or a pixel of one camera.
   void Teach(protocol::TeachWhere where, float a, float b) {
     uint8_t p[protocol::kTeachBallBytes];
@@ -772,13 +779,7 @@ TEST_F(MainLoopCommandsTest, TeachRefusalsKeepTheOldTable) {
 }
 
 TEST_F(MainLoopCommandsTest, AdaptationNeedsAKnownModelAndOnlyASaveMakesItPermanent) {
-  const auto param = [&](uint16_t id, float value) {
-    uint8_t p[6];
-    ByteWriter w(p);
-    w.U16(id);
-    w.F32(value);
-    Command(protocol::MsgType::kSetParam, w.written());
-  };
+  const auto param = [&](uint16_t id, float value) { SetParam(id, value); };
   Start();  // no stored table: the built-in model, known
   int acks, errors, statuses;
   uint8_t code = 0;
@@ -820,11 +821,7 @@ TEST_F(MainLoopCommandsTest, ASaveWhileAnUploadIsOpenIsBusyAndTheUploadGoesOn) {
   for (const uint16_t id : {kParamSaveColorTable, kParamSaveCorrection}) {
     UploadBegin(protocol::UploadTarget::kLut, b.size(), Crc32(b));
     UploadChunks(protocol::UploadTarget::kLut, b);
-    uint8_t p[6];
-    ByteWriter w(p);
-    w.U16(id);
-    w.F32(1.0f);
-    Command(protocol::MsgType::kSetParam, w.written());
+    SetParam(id, 1.0f);
     UploadCommit(protocol::UploadTarget::kLut);
   }
   Drain();
@@ -994,11 +991,7 @@ TEST_F(MainLoopCommandsTest, FieldHalfOdometryAndPoseCommands) {
 TEST_F(MainLoopCommandsTest, RobotPoseParametersReachThePipeline) {
   Start();
   auto set = [&](uint16_t id, float v) {
-    uint8_t p[6];
-    ByteWriter w(p);
-    w.U16(id);
-    w.F32(v);
-    Command(protocol::MsgType::kSetParam, w.written());
+    SetParam(id, v);
     Drain();
   };
   EXPECT_FALSE(loop_->pipeline().robot_pose().known);
@@ -1126,13 +1119,7 @@ TEST_F(MainLoopReadbackTest, ACorrectedTurnIsStoredOnlyOnCommandAndComesBack) {
     std::memcpy(o, omni.data(), kFrameBytes);
     std::memcpy(p, persp.data(), kFrameBytes);
   };
-  const auto save = [&] {
-    uint8_t b[6];
-    ByteWriter w(b);
-    w.U16(kParamSaveCorrection);
-    w.F32(1.0f);
-    Command(protocol::MsgType::kSetParam, w.written());
-  };
+  const auto save = [&] { SetParam(kParamSaveCorrection, 1.0f); };
   const auto pairs = [&](int from, int n) {
     for (int k = from; k < from + n; ++k) camera_.Add({33333u * static_cast<uint64_t>(k), 0, 0});
   };
