@@ -688,6 +688,8 @@ Status Pipeline::Process(const FrameInput& delivered, BallState& out) {
   if (!omni_watch_.Observe(used_.omni, used_.omni_t_us)) used_.omni = YuyvImage{};
   if (!persp_watch_.Observe(used_.persp, used_.persp_t_us)) used_.persp = YuyvImage{};
   mirror_rim_.Observe(used_.omni);
+  // A mirror moved beyond correction: its rays are wrong everywhere, the frame is not used.
+  if (mirror_rim_.state() == CameraState::kUnusable) used_.omni = YuyvImage{};
   // Turned beyond correction: not used either.
   if (persp_turn_.state() == CameraState::kUnusable) used_.persp = YuyvImage{};
   const FrameInput& in = used_;
@@ -777,7 +779,7 @@ void Pipeline::WatchPerspTurn(const CameraRays& rays, BallState& out) {
     join(out.omni_check, persp_turn_.omni_state(), persp_turn_.omni_change_deg(),
          persp_turn_.omni_confidence());
   } else {
-    join(out.omni_check, CameraState::kChanged, mirror_rim_.change_deg(),
+    join(out.omni_check, mirror_rim_.state(), mirror_rim_.change_deg(),
          static_cast<float>(mirror_rim_.last_points()) / MirrorRimWatch::kDirections);
   }
 }

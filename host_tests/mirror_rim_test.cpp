@@ -134,6 +134,33 @@ TEST(MirrorRim, AFrameWithoutARimDecidesNothing) {
   EXPECT_EQ(watch.state(), CameraState::kAsCalibrated);
 }
 
+// A rim found all round but no circle (a mirror tilted far on its holder: 10 deg made a fit of
+// 8 px rms on the render) is beyond correction: kUnusable after the third measurement.
+TEST(MirrorRim, ARimThatIsNoCircleIsBeyondCorrection) {
+  const Sim s = LoadSim("clutter");
+  if (!s.ok) GTEST_SKIP() << "no sim/clutter or reference calibration";
+  MirrorRimWatch watch;
+  MirrorRimConfig config;
+  config.every_frames = 1;
+  watch.Init(s.cal.omni, kReferenceOuterPx, config);
+  std::vector<uint8_t> f(640 * 480 * 2);
+  const float cu = s.cal.omni.center_u, cv = s.cal.omni.center_v;
+  for (int v = 0; v < 480; ++v) {
+    for (int u = 0; u < 640; ++u) {
+      const float x = (u - cu) / 236.f, y = (v - cv) / 208.f;  // an ellipse within the search
+      f[(static_cast<size_t>(v) * 640 + u) * 2] = x * x + y * y <= 1.f ? 150 : 5;
+      f[(static_cast<size_t>(v) * 640 + u) * 2 + 1] = 128;
+    }
+  }
+  for (int k = 0; k < 2; ++k) {
+    watch.Observe(MakeYuyvImage(f.data(), 640, 480));
+    EXPECT_EQ(watch.state(), CameraState::kAsCalibrated) << k;
+  }
+  watch.Observe(MakeYuyvImage(f.data(), 640, 480));
+  EXPECT_EQ(watch.state(), CameraState::kUnusable);
+  EXPECT_GT(watch.last_rms_px(), config.max_fit_rms_px);
+}
+
 // The pipeline reports it in the omni check (state 2) and leaves the persp turn alone.
 TEST(MirrorRim, ThePipelineFlagsTheOmniCameraAndDoesNotTurnThePersp) {
   const Sim s = LoadSim("clutter");

@@ -30,6 +30,7 @@ void MirrorRimWatch::Init(const OmniCalibration& cal, float outer_radius_px,
 
 void MirrorRimWatch::Reset() {
   frame_ = count_ = next_ = last_points_ = 0;
+  for (bool& m : misshapen_) m = false;
   offset_px_ = change_deg_ = last_rms_px_ = 0;
   state_ = CameraState::kAsCalibrated;
 }
@@ -40,9 +41,11 @@ void MirrorRimWatch::Observe(const YuyvImage& omni) {
   }
   if (frame_++ % std::max(config_.every_frames, 1) != 0) return;
   float du = 0, dv = 0;
-  if (!Measure(omni, du, dv)) return;
+  const Rim rim = Measure(omni, du, dv);
+  if (rim == Rim::kNone) return;
   du_[next_] = du;
   dv_[next_] = dv;
+  misshapen_[next_] = rim == Rim::kMisshapen;
   next_ = (next_ + 1) % kHistory;
   if (count_ < kHistory) ++count_;
   Decide();
@@ -50,8 +53,9 @@ void MirrorRimWatch::Observe(const YuyvImage& omni) {
 
 // Inward along each direction to the first pixel at or above bright_y (sub-pixel, as the
 // calibration finds it on its mean image); a circle through the points by linear least squares,
-// twice more without the points more than 2 px (then 1 px) off it.
-bool MirrorRimWatch::Measure(const YuyvImage& omni, float& du, float& dv) {
+// twice more without the points more than 2 px (then 1 px) off it. Found on most directions but
+// no circle: kMisshapen, the first fit's centre in (du, dv) (a mirror tilted far on its holder).
+MirrorRimWatch::Rim MirrorRimWatch::Measure(const YuyvImage& omni, float& du, float& dv) {
   const float cu = cal_->center_u, cv = cal_->center_v;
   const int y0 = config_.bright_y;
   float* pu = pu_;  // members, not stack: Process() inlines this on the device's tight stack
@@ -128,6 +132,7 @@ bool MirrorRimWatch::Measure(const YuyvImage& omni, float& du, float& dv) {
     fu = cu + static_cast<float>(a);
     fv = cv + static_cast<float>(b);
     radius = static_cast<float>(std::sqrt(r2));
+    if (pass == 0) du = fu - cu, dv = fv - cv;
     const float gate = pass == 0 ? 2.0f : 1.0f;
     double sum2 = 0;
     int kept = 0;
@@ -142,10 +147,13 @@ bool MirrorRimWatch::Measure(const YuyvImage& omni, float& du, float& dv) {
   }
   last_points_ = used >= config_.min_points ? used : 0;
   last_rms_px_ = rms;
-  if (last_points_ == 0 || !(rms <= config_.max_fit_rms_px)) return false;
+  if (last_points_ == 0 || !(rms <= config_.max_fit_rms_px)) {
+    const bool found = n >= config_.min_points && std::isfinite(du) && std::isfinite(dv);
+    return found ? Rim::kMisshapen : Rim::kNone;
+  }
   du = fu - cu;
   dv = fv - cv;
-  return std::isfinite(du) && std::isfinite(dv);
+  return std::isfinite(du) && std::isfinite(dv) ? Rim::kCircle : Rim::kNone;
 }
 
 void MirrorRimWatch::Decide() {
@@ -167,8 +175,14 @@ void MirrorRimWatch::Decide() {
     }
   }
   if (count_ < 3) return;  // one odd frame decides nothing
+  int misshapen = 0;
+  for (int i = 0; i < count_; ++i) misshapen += misshapen_[i];
   const float gate = state_ == CameraState::kAsCalibrated ? config_.flag_px : config_.clear_px;
-  state_ = offset_px_ >= gate ? CameraState::kChanged : CameraState::kAsCalibrated;
+  if (2 * misshapen > count_ || offset_px_ >= config_.unusable_px) {
+    state_ = CameraState::kUnusable;
+  } else {
+    state_ = offset_px_ >= gate ? CameraState::kChanged : CameraState::kAsCalibrated;
+  }
 }
 
 }  // namespace bv

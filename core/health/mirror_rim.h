@@ -26,6 +26,10 @@ struct MirrorRimConfig {
   float max_fit_rms_px = 1.5f;  // a rounder fit than this, or the measurement is not used
   float flag_px = 4.0f;         // median centre offset at which the mirror is flagged ...
   float clear_px = 2.5f;        // ... and below which the flag clears
+  // Beyond correction (kUnusable: the omni frames are not used): the rim this far off, or no
+  // circle in most measurements while found on most directions (10 deg of tilt: 27 px, and a
+  // fit 8 px rms).
+  float unusable_px = 20.0f;
 };
 
 class MirrorRimWatch {
@@ -44,7 +48,7 @@ class MirrorRimWatch {
   }
   /// One omni frame (ignored unless it is this frame's turn and the image is valid).
   void Observe(const YuyvImage& omni);
-  /// kAsCalibrated or kChanged.
+  /// kAsCalibrated, kChanged, or kUnusable (beyond correction).
   CameraState state() const { return state_; }
   /// The median centre offset (px) and what it turns a ray at half the rim radius by (deg).
   float offset_px() const { return offset_px_; }
@@ -54,7 +58,8 @@ class MirrorRimWatch {
   float last_rms_px() const { return last_rms_px_; }
 
  private:
-  bool Measure(const YuyvImage& omni, float& du, float& dv);
+  enum class Rim : uint8_t { kNone, kCircle, kMisshapen };
+  Rim Measure(const YuyvImage& omni, float& du, float& dv);
   void Decide();
 
   MirrorRimConfig config_;
@@ -65,6 +70,7 @@ class MirrorRimWatch {
   bool keep_[kDirections] = {};
   int frame_ = 0;
   float du_[kHistory] = {}, dv_[kHistory] = {};
+  bool misshapen_[kHistory] = {};
   int count_ = 0, next_ = 0;
   float offset_px_ = 0, change_deg_ = 0, last_rms_px_ = 0;
   int last_points_ = 0;
