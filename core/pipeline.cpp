@@ -774,12 +774,15 @@ void Pipeline::WatchPerspTurn(const CameraRays& rays, BallState& out) {
     c.confidence = confidence;
   };
   join(out.persp_check, persp_turn_.state(), persp_turn_.change_deg(), persp_turn_.confidence());
-  if (persp_turn_.omni_state() != CameraState::kAsCalibrated ||
-      mirror_rim_.state() == CameraState::kAsCalibrated) {
-    join(out.omni_check, persp_turn_.omni_state(), persp_turn_.omni_change_deg(),
-         persp_turn_.omni_confidence());
+  // The omni camera: the worse of the balls' verdict and the rim's; the balls' figures while
+  // they flag it (they measure the rays themselves), unless the rim puts it beyond correction.
+  const CameraState balls = persp_turn_.omni_state(), rim = mirror_rim_.state();
+  const CameraState worse = static_cast<uint8_t>(rim) > static_cast<uint8_t>(balls) ? rim : balls;
+  if (rim == CameraState::kAsCalibrated ||
+      (balls != CameraState::kAsCalibrated && rim != CameraState::kUnusable)) {
+    join(out.omni_check, worse, persp_turn_.omni_change_deg(), persp_turn_.omni_confidence());
   } else {
-    join(out.omni_check, mirror_rim_.state(), mirror_rim_.change_deg(),
+    join(out.omni_check, worse, mirror_rim_.change_deg(),
          static_cast<float>(mirror_rim_.last_points()) / MirrorRimWatch::kDirections);
   }
 }

@@ -134,6 +134,19 @@ TEST(MirrorRim, AFrameWithoutARimDecidesNothing) {
   EXPECT_EQ(watch.state(), CameraState::kAsCalibrated);
 }
 
+// A bright ellipse on black about the calibrated centre, within the rim search's band.
+std::vector<uint8_t> EllipticRim(const OmniCalibration& cal) {
+  std::vector<uint8_t> f(640 * 480 * 2);
+  for (int v = 0; v < 480; ++v) {
+    for (int u = 0; u < 640; ++u) {
+      const float x = (u - cal.center_u) / 236.f, y = (v - cal.center_v) / 208.f;
+      f[(static_cast<size_t>(v) * 640 + u) * 2] = x * x + y * y <= 1.f ? 150 : 5;
+      f[(static_cast<size_t>(v) * 640 + u) * 2 + 1] = 128;
+    }
+  }
+  return f;
+}
+
 // A rim found all round but no circle (a mirror tilted far on its holder: 10 deg made a fit of
 // 8 px rms on the render) is beyond correction: kUnusable after the third measurement.
 TEST(MirrorRim, ARimThatIsNoCircleIsBeyondCorrection) {
@@ -143,15 +156,7 @@ TEST(MirrorRim, ARimThatIsNoCircleIsBeyondCorrection) {
   MirrorRimConfig config;
   config.every_frames = 1;
   watch.Init(s.cal.omni, kReferenceOuterPx, config);
-  std::vector<uint8_t> f(640 * 480 * 2);
-  const float cu = s.cal.omni.center_u, cv = s.cal.omni.center_v;
-  for (int v = 0; v < 480; ++v) {
-    for (int u = 0; u < 640; ++u) {
-      const float x = (u - cu) / 236.f, y = (v - cv) / 208.f;  // an ellipse within the search
-      f[(static_cast<size_t>(v) * 640 + u) * 2] = x * x + y * y <= 1.f ? 150 : 5;
-      f[(static_cast<size_t>(v) * 640 + u) * 2 + 1] = 128;
-    }
-  }
+  const std::vector<uint8_t> f = EllipticRim(s.cal.omni);
   for (int k = 0; k < 2; ++k) {
     watch.Observe(MakeYuyvImage(f.data(), 640, 480));
     EXPECT_EQ(watch.state(), CameraState::kAsCalibrated) << k;
@@ -192,6 +197,42 @@ TEST(MirrorRim, ThePipelineFlagsTheOmniCameraAndDoesNotTurnThePersp) {
   EXPECT_GE(flagged_at, 0);
   EXPECT_LE(flagged_at, 8);
   EXPECT_EQ(pipeline->persp_turn().samples(), 0);
+}
+
+// Beyond correction in the pipeline: the omni check says 3, the omni frames are not used, and
+// the persp camera keeps the ball.
+TEST(MirrorRim, BeyondCorrectionThePipelineStopsUsingTheOmniCamera) {
+  const Sim s = LoadSim("clutter");
+  if (!s.ok) GTEST_SKIP() << "no sim/clutter or reference calibration";
+  std::string err, used;
+  auto lut = std::make_unique<ColorLut>();
+  ASSERT_TRUE(cli::LoadLutOrDefault("", kRefCalib, *lut, used, err)) << err;
+  auto pipeline = std::make_unique<OwnedPipeline>();
+  ASSERT_TRUE(pipeline->Init(s.cal, *lut, PipelineConfig{}).ok());
+  const std::vector<uint8_t> omni = EllipticRim(s.cal.omni);
+  int unusable_at = -1, persp_found = 0, omni_found_after = 0;
+  for (size_t i = 0; i < s.seq.entries.size(); ++i) {
+    std::vector<uint8_t> persp;
+    int pw = 0, ph = 0;
+    ASSERT_TRUE(host::LoadYuyv(s.seq.entries[i].persp_path, persp, pw, ph, err)) << err;
+    FrameInput in;
+    in.t_us = s.seq.entries[i].t_us;
+    in.omni = MakeYuyvImage(omni.data(), 640, 480);
+    in.persp = MakeYuyvImage(persp.data(), pw, ph);
+    BallState out;
+    ASSERT_TRUE(pipeline->Process(in, out).ok());
+    if (out.omni_check.state == CameraState::kUnusable && unusable_at < 0) {
+      unusable_at = static_cast<int>(i);
+    }
+    if (unusable_at >= 0) {
+      omni_found_after += out.omni.found;
+      persp_found += out.persp.found;
+    }
+  }
+  EXPECT_GE(unusable_at, 0);
+  EXPECT_LE(unusable_at, 8);
+  EXPECT_EQ(omni_found_after, 0);
+  EXPECT_GT(persp_found, 20);
 }
 
 }  // namespace
