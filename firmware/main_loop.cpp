@@ -461,7 +461,8 @@ protocol::CommandError MainLoop::StoreTable(const ColorLut& table) {
 
 // The calibration copy is built in the upload buffer's second half (no room for it on the
 // stack), serialised into the first, saved A/B with the second as the read-back check, then
-// parsed back as the calibration in use: the pipeline restarts from it, its turn estimate at 0.
+// parsed back as the calibration in use: the pipeline restarts from it (PollCommands, once this
+// command is answered), its turn estimate at 0.
 Status MainLoop::StoreCorrection() {
   if (upload_buffer_.empty()) return Status(StatusCode::kUnimplemented, "no upload buffer");
   if (!pipeline_ready_) return Status(StatusCode::kFailedPrecondition, "pipeline not running");
@@ -486,7 +487,7 @@ Status MainLoop::StoreCorrection() {
   BV_TRY(store.Save(blob.first(*n), verify));
   BV_TRY(ParseCalibration(blob.first(*n), calibration_));
   status_.calibration_id = calibration_.calibration_id;
-  InitPipeline();
+  reinit_pending_ = true;  // PollCommands restarts the pipeline right after this command
   return Status();
 }
 
@@ -519,6 +520,12 @@ void MainLoop::PollCommands() {
       }
       if (r.send_status) SendStatus();
       if (r.clock_sync) AnswerClockSync(r.sync);
+      // Here, not inside the command's handler: Pipeline::Init's stack on top of a handler's
+      // would pass the budget. Before the next command, so commands keep their order.
+      if (reinit_pending_) {
+        reinit_pending_ = false;
+        InitPipeline();
+      }
     }
   }
 }

@@ -259,6 +259,7 @@ class MainLoop {
   protocol::CommandError StoreTable(const ColorLut& table);
   /// kParamSaveCorrection: the corrected calibration stored A/B and activated.
   Status StoreCorrection();
+  bool reinit_pending_ = false;  // the calibration changed under a command: InitPipeline next
   // The upload buffer holds an open upload or waits for a teach's pair.
   bool UploadBufferBusy() const { return uploads_.open() || teach_.active; }
   Status SetAdaptation(bool on);

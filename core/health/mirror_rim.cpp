@@ -3,15 +3,12 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/common/median.h"
+
 namespace bv {
 namespace {
 
 constexpr float kDegPerRad = 57.29578f;
-
-float Median(float* v, int n) {
-  std::sort(v, v + n);
-  return n % 2 ? v[n / 2] : 0.5f * (v[n / 2 - 1] + v[n / 2]);
-}
 
 }  // namespace
 
@@ -157,9 +154,9 @@ MirrorRimWatch::Rim MirrorRimWatch::Measure(const YuyvImage& omni, float& du, fl
 }
 
 void MirrorRimWatch::Decide() {
-  float us[kHistory], vs[kHistory];
+  float us[kHistory] = {}, vs[kHistory] = {};
   for (int i = 0; i < count_; ++i) us[i] = du_[i], vs[i] = dv_[i];
-  const float mu = Median(us, count_), mv = Median(vs, count_);
+  const float mu = MedianInPlace(us, count_), mv = MedianInPlace(vs, count_);
   offset_px_ = std::hypot(mu, mv);
   // What the offset turns a ray by: the calibrated rays of a pixel at half the usable radius in
   // the offset's direction and of that pixel moved by it.

@@ -5,22 +5,13 @@
 
 #include <Eigen/Geometry>
 
+#include "core/common/median.h"
+
 namespace bv {
 namespace {
 
 constexpr float kDegPerRad = 57.29578f;
 constexpr float kTwoPi = 6.2831853f;
-
-// Median of v[0..n) (reorders v; n small): insertion sort.
-float Median(float* v, int n) {
-  for (int i = 1; i < n; ++i) {
-    const float x = v[i];
-    int j = i - 1;
-    while (j >= 0 && v[j] > x) v[j + 1] = v[j], --j;
-    v[j + 1] = x;
-  }
-  return n % 2 ? v[n / 2] : 0.5f * (v[n / 2 - 1] + v[n / 2]);
-}
 
 }  // namespace
 
@@ -108,10 +99,10 @@ void PerspTurnWatch::AddOmniSample(const Ray& omni, const Ray& persp, const Eige
   omni_next_ = (omni_next_ + 1) % kWindow;
   if (omni_count_ < kWindow) ++omni_count_;
   if (omni_count_ < config_.min_samples) return;
-  float ratios[kWindow], elevs[kWindow];
+  float ratios[kWindow] = {}, elevs[kWindow] = {};
   for (int i = 0; i < omni_count_; ++i) ratios[i] = omni_ratio_[i], elevs[i] = omni_elev_[i];
-  const float ratio = Median(ratios, omni_count_);
-  omni_change_deg_ = std::fabs(Median(elevs, omni_count_)) * kDegPerRad;
+  const float ratio = MedianInPlace(ratios, omni_count_);
+  omni_change_deg_ = std::fabs(MedianInPlace(elevs, omni_count_)) * kDegPerRad;
   int agree = 0;
   for (int i = 0; i < omni_count_; ++i) agree += std::fabs(omni_ratio_[i] - ratio) <= 0.05f;
   omni_confidence_ = static_cast<float>(agree) / static_cast<float>(omni_count_);
@@ -127,7 +118,7 @@ void PerspTurnWatch::Decide() {
   // orthogonal for rays near the horizon), their medians; then least squares over the samples
   // that agree with it. When too few agree (a large turn, where the small-angle model is
   // coarse) the medians stand, with their low confidence.
-  float pitches[kWindow], yaws[kWindow];
+  float pitches[kWindow] = {}, yaws[kWindow] = {};
   for (int i = 0; i < count_; ++i) {
     const Eigen::Vector3f a = right_.cross(ray_[i]);
     const Eigen::Vector3f b = Eigen::Vector3f::UnitZ().cross(ray_[i]);
@@ -135,7 +126,7 @@ void PerspTurnWatch::Decide() {
     pitches[i] = a.dot(e) / std::max(a.squaredNorm(), 1e-6f);
     yaws[i] = b.dot(e) / std::max(b.squaredNorm(), 1e-6f);
   }
-  float pitch = Median(pitches, count_), yaw = Median(yaws, count_);
+  float pitch = MedianInPlace(pitches, count_), yaw = MedianInPlace(yaws, count_);
   float fit_pitch = pitch, fit_yaw = yaw;
   if (Fit(fit_pitch, fit_yaw)) pitch = fit_pitch, yaw = fit_yaw;
   const float trim_rad = config_.trim_deg / kDegPerRad;
