@@ -166,37 +166,53 @@ TEST(MirrorRim, ARimThatIsNoCircleIsBeyondCorrection) {
   EXPECT_GT(watch.last_rms_px(), config.max_fit_rms_px);
 }
 
-// The pipeline reports it in the omni check (state 2) and leaves the persp turn alone.
-TEST(MirrorRim, ThePipelineFlagsTheOmniCameraAndDoesNotTurnThePersp) {
-  const Sim s = LoadSim("clutter");
-  if (!s.ok) GTEST_SKIP() << "no sim/clutter or reference calibration";
+// The whole pipeline on sim/clutter's persp frames, the omni frame of pair i given by `omni`;
+// `each` sees every pair's state.
+template <typename OmniFn, typename EachFn>
+void RunPipeline(const Sim& s, OmniFn&& omni, EachFn&& each) {
   std::string err, used;
   auto lut = std::make_unique<ColorLut>();
   ASSERT_TRUE(cli::LoadLutOrDefault("", kRefCalib, *lut, used, err)) << err;
   auto pipeline = std::make_unique<OwnedPipeline>();
   ASSERT_TRUE(pipeline->Init(s.cal, *lut, PipelineConfig{}).ok());
-  int flagged_at = -1;
   for (size_t i = 0; i < s.seq.entries.size(); ++i) {
-    std::vector<uint8_t> omni, persp;
-    int w = 0, h = 0, pw = 0, ph = 0;
-    ASSERT_TRUE(host::LoadYuyv(s.seq.entries[i].omni_path, omni, w, h, err)) << err;
+    std::vector<uint8_t> persp;
+    int pw = 0, ph = 0;
     ASSERT_TRUE(host::LoadYuyv(s.seq.entries[i].persp_path, persp, pw, ph, err)) << err;
-    omni = Shifted(omni, w, h, -12, 4);
+    const std::vector<uint8_t> o = omni(i);
     FrameInput in;
     in.t_us = s.seq.entries[i].t_us;
-    in.omni = MakeYuyvImage(omni.data(), w, h);
+    in.omni = MakeYuyvImage(o.data(), 640, 480);
     in.persp = MakeYuyvImage(persp.data(), pw, ph);
     BallState out;
     ASSERT_TRUE(pipeline->Process(in, out).ok());
+    each(static_cast<int>(i), out, *pipeline);
+  }
+}
+
+// The pipeline reports it in the omni check (state 2) and leaves the persp turn alone.
+TEST(MirrorRim, ThePipelineFlagsTheOmniCameraAndDoesNotTurnThePersp) {
+  const Sim s = LoadSim("clutter");
+  if (!s.ok) GTEST_SKIP() << "no sim/clutter or reference calibration";
+  int flagged_at = -1, turn_samples = -1;
+  const auto shifted = [&](size_t i) {
+    std::vector<uint8_t> f;
+    int w = 0, h = 0;
+    std::string err;
+    EXPECT_TRUE(host::LoadYuyv(s.seq.entries[i].omni_path, f, w, h, err)) << err;
+    return Shifted(f, w, h, -12, 4);
+  };
+  RunPipeline(s, shifted, [&](int i, const BallState& out, const Pipeline& p) {
     if (out.omni_check.state == CameraState::kChanged && flagged_at < 0) {
-      flagged_at = static_cast<int>(i);
+      flagged_at = i;
       EXPECT_GT(out.omni_check.change_deg, 1.0f);
     }
     EXPECT_EQ(out.persp_check.state, CameraState::kAsCalibrated) << i;
-  }
+    turn_samples = p.persp_turn().samples();
+  });
   EXPECT_GE(flagged_at, 0);
   EXPECT_LE(flagged_at, 8);
-  EXPECT_EQ(pipeline->persp_turn().samples(), 0);
+  EXPECT_EQ(turn_samples, 0);
 }
 
 // Beyond correction in the pipeline: the omni check says 3, the omni frames are not used, and
@@ -204,31 +220,17 @@ TEST(MirrorRim, ThePipelineFlagsTheOmniCameraAndDoesNotTurnThePersp) {
 TEST(MirrorRim, BeyondCorrectionThePipelineStopsUsingTheOmniCamera) {
   const Sim s = LoadSim("clutter");
   if (!s.ok) GTEST_SKIP() << "no sim/clutter or reference calibration";
-  std::string err, used;
-  auto lut = std::make_unique<ColorLut>();
-  ASSERT_TRUE(cli::LoadLutOrDefault("", kRefCalib, *lut, used, err)) << err;
-  auto pipeline = std::make_unique<OwnedPipeline>();
-  ASSERT_TRUE(pipeline->Init(s.cal, *lut, PipelineConfig{}).ok());
-  const std::vector<uint8_t> omni = EllipticRim(s.cal.omni);
+  const std::vector<uint8_t> elliptic = EllipticRim(s.cal.omni);
   int unusable_at = -1, persp_found = 0, omni_found_after = 0;
-  for (size_t i = 0; i < s.seq.entries.size(); ++i) {
-    std::vector<uint8_t> persp;
-    int pw = 0, ph = 0;
-    ASSERT_TRUE(host::LoadYuyv(s.seq.entries[i].persp_path, persp, pw, ph, err)) << err;
-    FrameInput in;
-    in.t_us = s.seq.entries[i].t_us;
-    in.omni = MakeYuyvImage(omni.data(), 640, 480);
-    in.persp = MakeYuyvImage(persp.data(), pw, ph);
-    BallState out;
-    ASSERT_TRUE(pipeline->Process(in, out).ok());
-    if (out.omni_check.state == CameraState::kUnusable && unusable_at < 0) {
-      unusable_at = static_cast<int>(i);
-    }
-    if (unusable_at >= 0) {
-      omni_found_after += out.omni.found;
-      persp_found += out.persp.found;
-    }
-  }
+  RunPipeline(
+      s, [&](size_t) { return elliptic; },
+      [&](int i, const BallState& out, const Pipeline&) {
+        if (out.omni_check.state == CameraState::kUnusable && unusable_at < 0) unusable_at = i;
+        if (unusable_at >= 0) {
+          omni_found_after += out.omni.found;
+          persp_found += out.persp.found;
+        }
+      });
   EXPECT_GE(unusable_at, 0);
   EXPECT_LE(unusable_at, 8);
   EXPECT_EQ(omni_found_after, 0);
