@@ -1,5 +1,7 @@
 #include "core/contour/contour.h"
 
+#include "core/common/circle_fit.h"
+
 #include <algorithm>
 #include <cmath>
 
@@ -346,43 +348,18 @@ ImageBorder BorderOf(const Region& reg, int image_width, int image_height) {
 bool RefineCircle(const uint8_t* codes, uint32_t len, const ImageBorder& border, float& ox,
                   float& oy, float& r) {
   const Ring ring = RingOf(r);
-  float sxx = 0, sxy = 0, syy = 0, sx = 0, sy = 0, sxz = 0, syz = 0, sz = 0, n = 0;
+  CircleSums sums;
   ForEachOutlinePoint(codes, len, [&](uint32_t, int x, int y) {
     if (border.Holds(x, y)) return;
     const float px = static_cast<float>(x) - ox, py = static_cast<float>(y) - oy;
-    const float z = px * px + py * py;
-    if (!ring.Holds(z)) return;
-    sxx += px * px;
-    sxy += px * py;
-    syy += py * py;
-    sx += px;
-    sy += py;
-    sxz += px * z;
-    syz += py * z;
-    sz += z;
-    n += 1.0f;
+    if (!ring.Holds(px * px + py * py)) return;
+    sums.Add(px, py);
   });
-  if (n < 6.0f) return false;
-  // [sxx sxy sx; sxy syy sy; sx sy n] (D, E, F) = -(sxz, syz, sz), by Cramer's rule.
-  const double a11 = sxx, a12 = sxy, a13 = sx, a22 = syy, a23 = sy, a33 = n;
-  const double b1 = -sxz, b2 = -syz, b3 = -sz;
-  const double det =
-      a11 * (a22 * a33 - a23 * a23) - a12 * (a12 * a33 - a23 * a13) + a13 * (a12 * a23 - a22 * a13);
-  if (!(std::fabs(det) > 1e-9)) return false;
-  const double d =
-      (b1 * (a22 * a33 - a23 * a23) - a12 * (b2 * a33 - a23 * b3) + a13 * (b2 * a23 - a22 * b3)) /
-      det;
-  const double e =
-      (a11 * (b2 * a33 - a23 * b3) - b1 * (a12 * a33 - a23 * a13) + a13 * (a12 * b3 - b2 * a13)) /
-      det;
-  const double f =
-      (a11 * (a22 * b3 - b2 * a23) - a12 * (a12 * b3 - b2 * a13) + b1 * (a12 * a23 - a22 * a13)) /
-      det;
-  const double r2 = 0.25 * (d * d + e * e) - f;
-  if (!(r2 > 0.0)) return false;
-  ox += static_cast<float>(-0.5 * d);
-  oy += static_cast<float>(-0.5 * e);
-  r = static_cast<float>(std::sqrt(r2));
+  double cx = 0, cy = 0, cr = 0;
+  if (sums.n < 6.0f || !sums.Solve(cx, cy, cr)) return false;
+  ox += static_cast<float>(cx);
+  oy += static_cast<float>(cy);
+  r = static_cast<float>(cr);
   return std::isfinite(ox) && std::isfinite(oy) && std::isfinite(r);
 }
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/common/circle_fit.h"
 #include "core/common/median.h"
 
 namespace bv {
@@ -55,8 +56,8 @@ void MirrorRimWatch::Observe(const YuyvImage& omni) {
 MirrorRimWatch::Rim MirrorRimWatch::Measure(const YuyvImage& omni, float& du, float& dv) {
   const float cu = cal_->center_u, cv = cal_->center_v;
   const int y0 = config_.bright_y;
-  float* pu = pu_;  // members, not stack: Process() inlines this on the device's tight stack
-  float* pv = pv_;
+  float* const pu = pu_;  // members, not stack: Process() inlines this on the device's stack
+  float* const pv = pv_;
   int n = 0;
   const float r0 = outer_px_ + config_.search_out_px;
   const int steps = static_cast<int>(config_.search_out_px + config_.search_in_px);
@@ -91,44 +92,21 @@ MirrorRimWatch::Rim MirrorRimWatch::Measure(const YuyvImage& omni, float& du, fl
   float fu = cu, fv = cv, radius = 0.f, rms = 0.f;
   int used = 0;
   for (int pass = 0; pass < 3; ++pass) {
-    // (u - a)^2 + (v - b)^2 = R^2 as 2 a u + 2 b v + c = u^2 + v^2, centred on the calibration
-    // for conditioning.
-    double s[3][4] = {};
-    used = 0;
+    // Relative to the calibrated centre, which keeps the sums well scaled.
+    CircleSums sums;
     for (int i = 0; i < n; ++i) {
-      if (!keep[i]) continue;
-      const double x = pu[i] - cu, y = pv[i] - cv, row[4] = {2 * x, 2 * y, 1, x * x + y * y};
-      for (int a = 0; a < 3; ++a)
-        for (int b = 0; b < 4; ++b) s[a][b] += row[a] * row[b];
-      ++used;
+      if (keep[i]) sums.Add(pu[i] - cu, pv[i] - cv);
     }
+    used = static_cast<int>(sums.n);
+    double a = 0, b = 0, r = 0;
     if (used < config_.min_points) break;
-    // 3x3 solve by Cramer's rule.
-    const auto det3 = [](double m00, double m01, double m02, double m10, double m11, double m12,
-                         double m20, double m21, double m22) {
-      return m00 * (m11 * m22 - m12 * m21) - m01 * (m10 * m22 - m12 * m20) +
-             m02 * (m10 * m21 - m11 * m20);
-    };
-    const double d =
-        det3(s[0][0], s[0][1], s[0][2], s[1][0], s[1][1], s[1][2], s[2][0], s[2][1], s[2][2]);
-    if (!(std::fabs(d) > 1e-9)) {
-      used = 0;
-      break;
-    }
-    const double a =
-        det3(s[0][3], s[0][1], s[0][2], s[1][3], s[1][1], s[1][2], s[2][3], s[2][1], s[2][2]) / d;
-    const double b =
-        det3(s[0][0], s[0][3], s[0][2], s[1][0], s[1][3], s[1][2], s[2][0], s[2][3], s[2][2]) / d;
-    const double c =
-        det3(s[0][0], s[0][1], s[0][3], s[1][0], s[1][1], s[1][3], s[2][0], s[2][1], s[2][3]) / d;
-    const double r2 = c + a * a + b * b;
-    if (!(r2 > 0.0)) {
+    if (!sums.Solve(a, b, r)) {
       used = 0;
       break;
     }
     fu = cu + static_cast<float>(a);
     fv = cv + static_cast<float>(b);
-    radius = static_cast<float>(std::sqrt(r2));
+    radius = static_cast<float>(r);
     if (pass == 0) du = fu - cu, dv = fv - cv;
     const float gate = pass == 0 ? 2.0f : 1.0f;
     double sum2 = 0;

@@ -23,7 +23,7 @@ struct MirrorRimConfig {
   float search_out_px = 24.0f;  // the walk starts this far beyond the usable circle ...
   float search_in_px = 16.0f;   // ... and ends this far inside it
   int min_points = 20;          // of kDirections, after trimming
-  float max_fit_rms_px = 1.5f;  // a rounder fit than this, or the measurement is not used
+  float max_fit_rms_px = 1.5f;  // a fit with a larger rms is no circle
   float flag_px = 4.0f;         // median centre offset at which the mirror is flagged ...
   float clear_px = 2.5f;        // ... and below which the flag clears
   // Beyond correction (kUnusable: the omni frames are not used): the rim this far off, or no
