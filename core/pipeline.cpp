@@ -416,8 +416,8 @@ bool Pipeline::OmniField::Inside(float u_px, float v_px, float) const {
   const RigCalibration& cal = *p->calibration_;
   float x = 0, y = 0;
   // Beyond the distance map the floor point is unknown: no verdict, not "outside".
-  if (!OmniPixelToGround(cal.omni, u_px, v_px, x, y).ok()) return true;
-  const float f_o = cal.omni.viewpoint_z_m, r = cal.ball_radius_m;
+  if (!OmniPixelToGround(p->omni_model_, u_px, v_px, x, y).ok()) return true;
+  const float f_o = p->omni_model_.viewpoint_z_m, r = cal.ball_radius_m;
   const float k = f_o > r ? (f_o - r) / f_o : 1.0f;
   return p->InField(x * k, y * k);
 }
@@ -466,6 +466,8 @@ Status Pipeline::Init(const RigCalibration& calibration, const ColorLut& lut,
   omni_watch_.Clear();  // a camera without calibration is not watched
   persp_watch_.Clear();
   mirror_rim_.Clear();
+  omni_model_ = calibration.omni;
+  omni_corrected_ = false;
   persp_turn_.Init(calibration.persp, config_.persp_turn);
   BV_TRY(field_model_.Init(calibration.field));
   if (calibration.omni.valid) {
@@ -475,11 +477,9 @@ Status Pipeline::Init(const RigCalibration& calibration, const ColorLut& lut,
     BV_TRY(tables_.omni.BuildOmni(scan, kFrameWidth, kFrameHeight));
     BV_TRY(omni_watch_.Build(tables_.omni, config_.watch));
     if (config_.field_features) {
-      FieldFeatureConfig fc = config_.features;
-      fc.line_width_m = calibration.field.line_width_m;
-      fc.goal_width_m = calibration.field.goal_width_m;
-      fc.goal_depth_m = calibration.field.goal_depth_m;
-      BV_TRY(extractor_.Init(scan, calibration.omni, fc, tables_.feature_walk));
+      BV_TRY(extractor_.Init(scan, omni_model_, FeatureConfig(), tables_.feature_walk));
+      features_centre_u_ = omni_model_.center_u;
+      features_centre_v_ = omni_model_.center_v;
       BV_TRY(localiser_.Init(&field_model_, config_.localiser));
       features_ready_ = true;
     }
@@ -546,7 +546,7 @@ void Pipeline::Predict(uint64_t t_us) {
 bool Pipeline::PredictAt(const Eigen::Vector3f& p) {
   const float r = calibration_->ball_radius_m;
   float u, w;
-  if (calibration_->omni.valid && OmniProject(calibration_->omni, p, u, w).ok()) {
+  if (omni_model_.valid && OmniProject(omni_model_, p, u, w).ok()) {
     pred_omni_.valid = true;
     pred_omni_.u_px = u;
     pred_omni_.v_px = w;
@@ -555,12 +555,12 @@ bool Pipeline::PredictAt(const Eigen::Vector3f& p) {
     float u2, w2;
     if (d > 1e-3f) {
       const Eigen::Vector3f q = p + Eigen::Vector3f(p.x() / d * r, p.y() / d * r, 0.f);
-      if (OmniProject(calibration_->omni, q, u2, w2).ok()) {
+      if (OmniProject(omni_model_, q, u2, w2).ok()) {
         pred_omni_.radius_px = std::hypot(u2 - u, w2 - w);
       }
       // The silhouette: the ball's angular radius from the mirror viewpoint, across the image
       // radius (azimuth) and along it (elevation, offset downwards to stay below the horizon).
-      const Eigen::Vector3f los = p - Eigen::Vector3f(0.f, 0.f, calibration_->omni.viewpoint_z_m);
+      const Eigen::Vector3f los = p - Eigen::Vector3f(0.f, 0.f, omni_model_.viewpoint_z_m);
       const Eigen::Vector3f e_t(-p.y() / d, p.x() / d, 0.f);
       // e_t x los, written out (Eigen's cross lives in Eigen/Geometry, not used on the device).
       Eigen::Vector3f e_v(e_t.y() * los.z(), -e_t.x() * los.z(),
@@ -568,8 +568,8 @@ bool Pipeline::PredictAt(const Eigen::Vector3f& p) {
       e_v.normalize();
       if (e_v.z() > 0.f) e_v = -e_v;
       float ut, wt, uv, wv;
-      if (OmniProject(calibration_->omni, p + e_t * r, ut, wt).ok() &&
-          OmniProject(calibration_->omni, p + e_v * r, uv, wv).ok()) {
+      if (OmniProject(omni_model_, p + e_t * r, ut, wt).ok() &&
+          OmniProject(omni_model_, p + e_v * r, uv, wv).ok()) {
         pred_omni_.silhouette_radius_px =
             std::sqrt(std::hypot(ut - u, wt - w) * std::hypot(uv - u, wv - w));
       }
@@ -614,7 +614,7 @@ BallDetection Pipeline::Detect(BallFinder& finder, const YuyvImage& img,
 bool Pipeline::StereoConsistent(const BallDetection& omni, const BallDetection& persp,
                                 Eigen::Vector3f* point) const {
   const RigCalibration& cal = *calibration_;
-  const Result<Ray> ro = OmniPixelToRayExtended(cal.omni, omni.u_px, omni.v_px);
+  const Result<Ray> ro = OmniPixelToRayExtended(omni_model_, omni.u_px, omni.v_px);
   const Result<Ray> rp = PerspPixelToRay(persp_turn_.model(), persp.u_px, persp.v_px);
   if (!ro.ok() || !rp.ok()) return false;
   const Result<Triangulation> tri = TriangulateRays(*rp, *ro, config_.triangulation);
@@ -688,6 +688,7 @@ Status Pipeline::Process(const FrameInput& delivered, BallState& out) {
   if (!omni_watch_.Observe(used_.omni, used_.omni_t_us)) used_.omni = YuyvImage{};
   if (!persp_watch_.Observe(used_.persp, used_.persp_t_us)) used_.persp = YuyvImage{};
   mirror_rim_.Observe(used_.omni);
+  CorrectOmni();
   // A mirror moved beyond correction: its rays are wrong everywhere, the frame is not used.
   if (mirror_rim_.state() == CameraState::kUnusable) used_.omni = YuyvImage{};
   // Turned beyond correction: not used either.
@@ -787,6 +788,38 @@ void Pipeline::WatchPerspTurn(const CameraRays& rays, BallState& out) {
   }
 }
 
+// Re-centring is what `calibrate omni` does (the image centre is the rim circle's centre); it
+// takes out the mirror's offset whole and most of a tilt's error (core/health/README.md).
+void Pipeline::CorrectOmni() {
+  if (calibration_ == nullptr) return;
+  const OmniCalibration& cal = calibration_->omni;
+  omni_corrected_ = config_.mirror_rim.recentre && mirror_rim_.state() == CameraState::kChanged;
+  omni_model_.center_u = cal.center_u + (omni_corrected_ ? mirror_rim_.offset_u_px() : 0.f);
+  omni_model_.center_v = cal.center_v + (omni_corrected_ ? mirror_rim_.offset_v_px() : 0.f);
+  // The feature rays follow the centre: radial about the old one, a side of them would stop
+  // short of the rim, where the far lines are (seed 904 knocked: 23 line points a frame, not 31,
+  // and no unique pose). Rebuilt only when the centre moved a pixel.
+  if (!features_ready_ || (std::fabs(omni_model_.center_u - features_centre_u_) < 1.f &&
+                           std::fabs(omni_model_.center_v - features_centre_v_) < 1.f)) {
+    return;
+  }
+  const OmniScanConfig scan = PipelineOmniScan(omni_model_, config_);
+  if (extractor_.Init(scan, omni_model_, FeatureConfig(), tables_.feature_walk).ok()) {
+    features_centre_u_ = omni_model_.center_u;
+    features_centre_v_ = omni_model_.center_v;
+  } else {
+    features_ready_ = false;  // cannot happen for a centre the calibration's rays fit around
+  }
+}
+
+FieldFeatureConfig Pipeline::FeatureConfig() const {
+  FieldFeatureConfig fc = config_.features;
+  fc.line_width_m = calibration_->field.line_width_m;
+  fc.goal_width_m = calibration_->field.goal_width_m;
+  fc.goal_depth_m = calibration_->field.goal_depth_m;
+  return fc;
+}
+
 float Pipeline::OmniKnockedRad() const {
   // The balls measure the rays' own error; the rim's is a proxy, used until they do.
   float deg = 0.f;
@@ -876,12 +909,11 @@ void Pipeline::DetectBalls(const FrameInput& in, BallState& out) {
 // goes to the filter, with half its radius more of centroid noise and no size cue (a raised ball
 // at 4-5 m is seen at the rim; a ball within 1 m is cut by the persp border).
 Pipeline::CameraRays Pipeline::DetectionRays(const FrameInput& in, BallState& out) const {
-  const RigCalibration& cal = *calibration_;
   CameraRays rays;
-  rays.omni_cut = out.omni.found &&
-                  std::hypot(out.omni.u_px - cal.omni.center_u, out.omni.v_px - cal.omni.center_v) +
-                          out.omni.radius_px >
-                      omni_outer_radius_px_ - kRimMarginPx;
+  rays.omni_cut = out.omni.found && std::hypot(out.omni.u_px - omni_model_.center_u,
+                                               out.omni.v_px - omni_model_.center_v) +
+                                            out.omni.radius_px >
+                                        omni_outer_radius_px_ - kRimMarginPx;
   const float pr = out.persp.radius_px;
   rays.persp_cut =
       out.persp.found && (out.persp.u_px - pr < 0.5f || out.persp.v_px - pr < 0.5f ||
@@ -891,10 +923,10 @@ Pipeline::CameraRays Pipeline::DetectionRays(const FrameInput& in, BallState& ou
     out.flags |= kFlagSeenOmni;
     float cu = out.omni.u_px, cv = out.omni.v_px;
     if (!rays.omni_cut) {
-      ShadedSideCentre(cal.omni, out.omni.radius_px, config_.omni_shade_lost_px, cu, cv);
-      OmniSphereCentre(cal.omni, out.omni.radius_px, cu, cv);
+      ShadedSideCentre(omni_model_, out.omni.radius_px, config_.omni_shade_lost_px, cu, cv);
+      OmniSphereCentre(omni_model_, out.omni.radius_px, cu, cv);
     }
-    auto ray = OmniPixelToRayExtended(cal.omni, cu, cv);
+    auto ray = OmniPixelToRayExtended(omni_model_, cu, cv);
     if (ray.ok()) {
       rays.omni = *ray;
       rays.have_omni = true;
@@ -1026,7 +1058,7 @@ void Pipeline::BuildObservation(const CameraRays& rays, BallState& out, BallObse
     omni_ray.camera = 0;
     const float hidden_px = SizeMisfitPx(pred_omni_, out.omni.radius_px, config_.size_range_rel);
     const float cut_px = rays.omni_cut ? 0.5f * out.omni.radius_px : 0.f;
-    OmniRaySigma(cal.omni, out.omni, rays.omni, cut_px + hidden_px,
+    OmniRaySigma(omni_model_, out.omni, rays.omni, cut_px + hidden_px,
                  cut_px + kHiddenCentroidPerMissingRadius * hidden_px, config_, omni_ray);
     if (const float change_rad = OmniKnockedRad(); change_rad > 0.f) {  // down-weighted
       omni_ray.sigma_v_rad = std::hypot(omni_ray.sigma_v_rad, change_rad);
@@ -1141,7 +1173,7 @@ void Pipeline::ReviewCandidates(const FrameInput& in, const BallState& out) {
                                 std::max(out.omni.radius_px, 3.f)) {
         continue;
       }
-      const Result<Ray> ray = OmniPixelToRayExtended(cal.omni, co[i].u_px, co[i].v_px);
+      const Result<Ray> ray = OmniPixelToRayExtended(omni_model_, co[i].u_px, co[i].v_px);
       if (!ray.ok() || ray->dir.z() > -1e-3f) continue;
       const float k = (cal.ball_radius_m - ray->origin.z()) / ray->dir.z();
       const Eigen::Vector3f q = ray->origin + k * ray->dir;

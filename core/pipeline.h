@@ -205,9 +205,15 @@ class Pipeline {
   const PerspTurnWatch& persp_turn() const { return persp_turn_; }
   /// The knocked-mirror watch on the omni image's rim.
   const MirrorRimWatch& mirror_rim() const { return mirror_rim_; }
+  /// The omni camera model the pipeline uses: the calibration's, re-centred on the mirror rim
+  /// while the rim watch says the mirror moved.
+  const OmniCalibration& omni_model() const { return omni_model_; }
+  bool OmniCorrected() const { return omni_corrected_; }
   /// The calibration given to Init with the corrections in use folded in (the persp camera
   /// turned by its estimate), for storing on the main computer's command; the calibration id
-  /// is left for the caller to renew. False (and `out` untouched) when nothing is corrected.
+  /// is left for the caller to renew. False (and `out` untouched) when nothing is corrected. The
+  /// omni re-centring is not stored: it leaves a few % of range error (core/health/README.md),
+  /// which a calibration would pass off as none.
   bool CorrectedCalibration(RigCalibration& out) const {
     if (calibration_ == nullptr || persp_turn_.state() != CameraState::kCorrected) return false;
     out = *calibration_;
@@ -225,6 +231,7 @@ class Pipeline {
     persp_watch_.Reset();
     persp_turn_.Reset();
     mirror_rim_.Reset();
+    CorrectOmni();
   }
   /// Online colour adaptation (core/color_lut/color_adapt.h), fed with the detections both
   /// cameras confirm; null turns it off. The adapter must outlive the pipeline's use of it.
@@ -317,6 +324,13 @@ class Pipeline {
   CameraWatch omni_watch_, persp_watch_;
   PerspTurnWatch persp_turn_;
   MirrorRimWatch mirror_rim_;
+  // A copy of the calibration's omni model, its centre moved to where the rim watch finds the
+  // rim (issue 40 B5); the field features and every omni ray use it.
+  OmniCalibration omni_model_;
+  bool omni_corrected_ = false;
+  float features_centre_u_ = 0, features_centre_v_ = 0;  // the feature rays' centre
+  void CorrectOmni();
+  FieldFeatureConfig FeatureConfig() const;
   // The omni camera's knocked-mirror evidence (rim or ball samples) as one change (rad); 0: none.
   float OmniKnockedRad() const;
   FrameInput used_;  // this pair's frames as Process() uses them (refused ones left out)

@@ -29,7 +29,7 @@ void MirrorRimWatch::Init(const OmniCalibration& cal, float outer_radius_px,
 void MirrorRimWatch::Reset() {
   frame_ = count_ = next_ = last_points_ = 0;
   for (bool& m : misshapen_) m = false;
-  offset_px_ = change_deg_ = last_rms_px_ = 0;
+  offset_px_ = offset_u_px_ = offset_v_px_ = change_deg_ = last_rms_px_ = 0;
   state_ = CameraState::kAsCalibrated;
 }
 
@@ -136,6 +136,8 @@ void MirrorRimWatch::Decide() {
   for (int i = 0; i < count_; ++i) us[i] = du_[i], vs[i] = dv_[i];
   const float mu = MedianInPlace(us, count_), mv = MedianInPlace(vs, count_);
   offset_px_ = std::hypot(mu, mv);
+  offset_u_px_ = mu;
+  offset_v_px_ = mv;
   // What the offset turns a ray by: the calibrated rays of a pixel at half the usable radius in
   // the offset's direction and of that pixel moved by it.
   change_deg_ = 0.f;

@@ -30,6 +30,8 @@ struct MirrorRimConfig {
   // circle in most measurements while found on most directions (10 deg of tilt: 27 px, and a
   // fit 8 px rms).
   float unusable_px = 20.0f;
+  // While flagged, the pipeline's omni model is re-centred on the rim (Pipeline::CorrectOmni).
+  bool recentre = true;
 };
 
 class MirrorRimWatch {
@@ -52,6 +54,10 @@ class MirrorRimWatch {
   CameraState state() const { return state_; }
   /// The median centre offset (px) and what it turns a ray at half the rim radius by (deg).
   float offset_px() const { return offset_px_; }
+  /// The median offset's image components (px): where the rim's centre now lies against the
+  /// calibrated centre.
+  float offset_u_px() const { return offset_u_px_; }
+  float offset_v_px() const { return offset_v_px_; }
   float change_deg() const { return change_deg_; }
   /// The last measurement: points kept and the fit's rms (px); 0 points: none usable.
   int last_points() const { return last_points_; }
@@ -72,7 +78,7 @@ class MirrorRimWatch {
   float du_[kHistory] = {}, dv_[kHistory] = {};
   bool misshapen_[kHistory] = {};
   int count_ = 0, next_ = 0;
-  float offset_px_ = 0, change_deg_ = 0, last_rms_px_ = 0;
+  float offset_px_ = 0, offset_u_px_ = 0, offset_v_px_ = 0, change_deg_ = 0, last_rms_px_ = 0;
   int last_points_ = 0;
   CameraState state_ = CameraState::kAsCalibrated;
 };

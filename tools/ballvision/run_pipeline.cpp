@@ -126,7 +126,7 @@ bool AnnotateFrame(const std::string& dir, int64_t index, const FrameInput& in,
     std::snprintf(name, sizeof name, "/%s_%06lld.png", names[c], static_cast<long long>(index));
     FieldOverlay field;
     const bool with_field = c == 0 && pipeline.features_enabled() && pipeline.calibration();
-    if (with_field) field = MakeFieldOverlay(pipeline, pipeline.calibration()->omni);
+    if (with_field) field = MakeFieldOverlay(pipeline, pipeline.omni_model());
     if (!AnnotateFrontEnd(*imgs[c], *pipeline.lut(), *scans[c], *finders[c],
                           preds[c]->valid ? &p : nullptr, *dets[c], dir + name, &error, 1,
                           with_field ? &field : nullptr)) {
