@@ -276,6 +276,31 @@ TEST(MirrorRim, TheReCentredModelGivesThePoseBack) {
   EXPECT_LT(without.usable, frames / 2);
 }
 
+// The mirror put back (the frames as rendered from pair 20 on): the flag clears, and the model
+// and the feature rays return to the calibration's centre.
+TEST(MirrorRim, PutBackTheModelReturnsToTheCalibration) {
+  const Sim s = LoadSim("clutter");
+  if (!s.ok) GTEST_SKIP() << "no sim/clutter or reference calibration";
+  bool corrected = false, back = false;
+  float u = 0, v = 0;
+  int usable_at_end = 0;
+  RunPipeline(
+      s, [&](size_t i) { return i < 20 ? OmniFrame(s, i, -12, 4) : OmniFrame(s, i); },
+      [&](int i, const BallState&, const Pipeline& p) {
+        if (i < 20) corrected |= p.OmniCorrected();
+        back = !p.OmniCorrected();
+        u = p.omni_model().center_u;
+        v = p.omni_model().center_v;
+        if (i >= static_cast<int>(s.seq.entries.size()) - 5)
+          usable_at_end += p.localisation().usable();
+      });
+  EXPECT_TRUE(corrected);
+  EXPECT_TRUE(back);
+  EXPECT_EQ(u, s.cal.omni.center_u);
+  EXPECT_EQ(v, s.cal.omni.center_v);
+  EXPECT_EQ(usable_at_end, 5);
+}
+
 // Beyond correction in the pipeline: the omni check says 3, the omni frames are not used, and
 // the persp camera keeps the ball.
 TEST(MirrorRim, BeyondCorrectionThePipelineStopsUsingTheOmniCamera) {
