@@ -797,8 +797,8 @@ void Pipeline::CorrectOmni() {
   omni_model_.center_u = cal.center_u + (omni_corrected_ ? mirror_rim_.offset_u_px() : 0.f);
   omni_model_.center_v = cal.center_v + (omni_corrected_ ? mirror_rim_.offset_v_px() : 0.f);
   // The feature rays follow the centre: radial about the old one, a side of them would stop
-  // short of the rim, where the far lines are (seed 904 knocked: 23 line points a frame, not 31,
-  // and no unique pose). Rebuilt only when the centre moved a pixel.
+  // short of the rim, where the far lines are (seed 904 knocked: 23 line points a frame instead of
+  // 27). Rebuilt only when the centre moved a pixel.
   if (!features_ready_ || (std::fabs(omni_model_.center_u - features_centre_u_) < 1.f &&
                            std::fabs(omni_model_.center_v - features_centre_v_) < 1.f)) {
     return;

@@ -284,6 +284,8 @@ TEST(MirrorRim, PutBackTheModelReturnsToTheCalibration) {
   bool corrected = false, back = false;
   float u = 0, v = 0;
   int usable_at_end = 0;
+  PipelineConfig config;
+  config.mirror_rim.recentre = true;
   RunPipeline(
       s, [&](size_t i) { return i < 20 ? OmniFrame(s, i, -12, 4) : OmniFrame(s, i); },
       [&](int i, const BallState&, const Pipeline& p) {
@@ -293,7 +295,8 @@ TEST(MirrorRim, PutBackTheModelReturnsToTheCalibration) {
         v = p.omni_model().center_v;
         if (i >= static_cast<int>(s.seq.entries.size()) - 5)
           usable_at_end += p.localisation().usable();
-      });
+      },
+      config);
   EXPECT_TRUE(corrected);
   EXPECT_TRUE(back);
   EXPECT_EQ(u, s.cal.omni.center_u);
