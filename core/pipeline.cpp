@@ -467,7 +467,6 @@ Status Pipeline::Init(const RigCalibration& calibration, const ColorLut& lut,
   persp_watch_.Clear();
   mirror_rim_.Clear();
   omni_model_ = calibration.omni;
-  omni_corrected_ = false;
   persp_turn_.Init(calibration.persp, config_.persp_turn);
   BV_TRY(field_model_.Init(calibration.field));
   if (calibration.omni.valid) {
@@ -793,9 +792,9 @@ void Pipeline::WatchPerspTurn(const CameraRays& rays, BallState& out) {
 void Pipeline::CorrectOmni() {
   if (calibration_ == nullptr) return;
   const OmniCalibration& cal = calibration_->omni;
-  omni_corrected_ = config_.mirror_rim.recentre && mirror_rim_.state() == CameraState::kChanged;
-  omni_model_.center_u = cal.center_u + (omni_corrected_ ? mirror_rim_.offset_u_px() : 0.f);
-  omni_model_.center_v = cal.center_v + (omni_corrected_ ? mirror_rim_.offset_v_px() : 0.f);
+  const bool moved = OmniCorrected();
+  omni_model_.center_u = cal.center_u + (moved ? mirror_rim_.offset_u_px() : 0.f);
+  omni_model_.center_v = cal.center_v + (moved ? mirror_rim_.offset_v_px() : 0.f);
   // The feature rays follow the centre: radial about the old one, a side of them would stop
   // short of the rim, where the far lines are (seed 904 knocked: 23 line points a frame instead of
   // 27). Rebuilt only when the centre moved a pixel.

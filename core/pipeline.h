@@ -208,7 +208,9 @@ class Pipeline {
   /// The omni camera model the pipeline uses: the calibration's, re-centred on the mirror rim
   /// while the rim watch says the mirror moved.
   const OmniCalibration& omni_model() const { return omni_model_; }
-  bool OmniCorrected() const { return omni_corrected_; }
+  bool OmniCorrected() const {
+    return config_.mirror_rim.recentre && mirror_rim_.state() == CameraState::kChanged;
+  }
   /// The calibration given to Init with the corrections in use folded in (the persp camera
   /// turned by its estimate), for storing on the main computer's command; the calibration id
   /// is left for the caller to renew. False (and `out` untouched) when nothing is corrected. The
@@ -327,7 +329,6 @@ class Pipeline {
   // A copy of the calibration's omni model, its centre moved to where the rim watch finds the
   // rim (issue 40 B5); the field features and every omni ray use it.
   OmniCalibration omni_model_;
-  bool omni_corrected_ = false;
   float features_centre_u_ = 0, features_centre_v_ = 0;  // the feature rays' centre
   void CorrectOmni();
   FieldFeatureConfig FeatureConfig() const;

@@ -58,6 +58,15 @@ std::vector<uint8_t> Shifted(const std::vector<uint8_t>& f, int w, int h, int du
   return out;
 }
 
+// Pair i's omni frame, moved by (du, dv) px.
+std::vector<uint8_t> OmniFrame(const Sim& s, size_t i, int du = 0, int dv = 0) {
+  std::vector<uint8_t> f;
+  int w = 0, h = 0;
+  std::string err;
+  EXPECT_TRUE(host::LoadYuyv(s.seq.entries[i].omni_path, f, w, h, err)) << err;
+  return du != 0 || dv != 0 ? Shifted(f, w, h, du, dv) : f;
+}
+
 struct Seen {
   float max_offset_px = 0, max_rms_px = 0;
   int measured = 0, flagged_at = -1;
@@ -65,15 +74,11 @@ struct Seen {
 
 Seen Watch(const Sim& s, int du, int dv, MirrorRimWatch& watch) {
   Seen seen;
-  std::string err;
   for (size_t i = 0; i < s.seq.entries.size(); ++i) {
-    std::vector<uint8_t> f;
-    int w = 0, h = 0;
-    EXPECT_TRUE(host::LoadYuyv(s.seq.entries[i].omni_path, f, w, h, err)) << err;
-    if (du != 0 || dv != 0) f = Shifted(f, w, h, du, dv);
+    const std::vector<uint8_t> f = OmniFrame(s, i, du, dv);
     const int before = watch.last_points();
     const float rms_before = watch.last_rms_px();
-    watch.Observe(MakeYuyvImage(f.data(), w, h));
+    watch.Observe(MakeYuyvImage(f.data(), 640, 480));
     if (watch.last_points() != before || watch.last_rms_px() != rms_before) ++seen.measured;
     seen.max_offset_px = std::max(seen.max_offset_px, watch.offset_px());
     seen.max_rms_px = std::max(seen.max_rms_px, watch.last_rms_px());
@@ -190,15 +195,6 @@ void RunPipeline(const Sim& s, OmniFn&& omni, EachFn&& each,
     ASSERT_TRUE(pipeline->Process(in, out).ok());
     each(static_cast<int>(i), out, *pipeline);
   }
-}
-
-// Pair i's omni frame, moved by (du, dv) px.
-std::vector<uint8_t> OmniFrame(const Sim& s, size_t i, int du = 0, int dv = 0) {
-  std::vector<uint8_t> f;
-  int w = 0, h = 0;
-  std::string err;
-  EXPECT_TRUE(host::LoadYuyv(s.seq.entries[i].omni_path, f, w, h, err)) << err;
-  return du != 0 || dv != 0 ? Shifted(f, w, h, du, dv) : f;
 }
 
 // The pipeline reports it in the omni check (state 2) and leaves the persp turn alone.
