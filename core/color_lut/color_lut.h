@@ -50,6 +50,9 @@ class PairChromaTest {
     lo_ = u_lo << 8 | v_lo << 24;  // Y lanes 0 and 255: never out of range
     hi_ = 0xFFu | u_hi << 8 | 0xFFu << 16 | v_hi << 24;
   }
+  /// The word's lower and upper bounds per byte (Y lanes 0 and 255), for a vector form of Holds.
+  constexpr uint32_t lo() const { return lo_; }
+  constexpr uint32_t hi() const { return hi_; }
   bool Holds(uint32_t pair_word) const {
 #if defined(__ARM_FEATURE_SIMD32) && __ARM_FEATURE_SIMD32
     return (__uqsub8(lo_, pair_word) | __uqsub8(pair_word, hi_)) == 0;

@@ -255,8 +255,7 @@ Status BallFinder::Find(const YuyvImage& image, const ColorLut& lut, const Predi
   bool in_run = false;  // the previous kept sample was ball
   // The loop hints the cache ahead (a fresh frame is cold).
   scan_->ForEachKeptPair(
-      image.data, image.stride_bytes, [&box](uint32_t w) { return box.Holds(w); },
-      [&](int u, int v, uint32_t w, bool follows) {
+      image.data, image.stride_bytes, box, [&](int u, int v, uint32_t w, bool follows) {
         const auto y = static_cast<uint8_t>(w >> ((u & 1) * 16));
         const bool ball = lut.Classify(y, static_cast<uint8_t>(w >> 8),
                                        static_cast<uint8_t>(w >> 24)) == ColorClass::kBall;

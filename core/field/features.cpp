@@ -282,6 +282,13 @@ void FieldFeatureExtractor::ScanRay(const YuyvImage& img, const ColorLut& lut, i
   if (line_foot_r >= 0.0f && hits_[ray].goal_cm == 0) SetFoot(ray, line_foot_r, cs, sn);
 }
 
+void FieldFeatureExtractor::HintRay(const uint8_t* data, int ray) const {
+  if (Blocked(ray)) return;
+  const uint32_t* const at = walk_->at + ray * FieldFeatureWalk::kRowEntries;
+  for (int k = 0; k < std::min<int>(inside_[ray], kRayLookAhead); ++k)
+    __builtin_prefetch(data + (at[k] & 0x7fffffffu));
+}
+
 void FieldFeatureExtractor::SetFoot(int ray, float r, float cs, float sn) {
   float x, y;
   if (Ground(scan_.center_u + r * cs, scan_.center_v + r * sn, x, y) &&
@@ -522,8 +529,13 @@ Status FieldFeatureExtractor::Extract(const YuyvImage& omni, const ColorLut& lut
     return Status(StatusCode::kInvalidArgument, "field features: omni frame size or stride wrong");
   }
   if (omni.stride_bytes != walk_->stride) BuildWalk(omni.stride_bytes);
-  for (int i = 0; i < scan_.features.rays; ++i) {
+  const int rays = scan_.features.rays;
+  if constexpr (kHintRayAhead) HintRay(omni.data, 0);
+  for (int i = 0; i < rays; ++i) {
     hits_[i] = RayHit{};
+    if constexpr (kHintRayAhead) {
+      if (i + 1 < rays) HintRay(omni.data, i + 1);
+    }
     if (!Blocked(i)) ScanRay(omni, lut, i, out);
   }
   MergeObstacles(omni, lut, out);
