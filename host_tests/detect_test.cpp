@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include "core/color_lut/color_model.h"
+#include "core/common/round.h"
 
 #include "host_tests/test_util.h"
 
@@ -48,6 +49,30 @@ struct Omni {
     EXPECT_TRUE(finder->Init(*scan, cfg).ok());
   }
 };
+
+TEST(DetectTest, RoundToIntIsTheLibrarysRoundingWithoutTheCall) {
+  // Every float the detector rounds: ties, the float just below a tie, signs, large values.
+  std::vector<float> xs = {0.0f,      -0.0f,       0.5f,  -0.5f,         1.5f,          -2.5f,
+                           2.5f,      0.49999997f, 1e6f,  -1e6f,         8388607.5f,    -8388607.5f,
+                           8388609.f, 2e9f,        -2e9f, 2147483520.0f, -2147483520.0f};
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> wide(-5000.0f, 5000.0f), unit(-4.0f, 4.0f);
+  for (int i = 0; i < 200000; ++i) xs.push_back(i % 2 ? wide(rng) : unit(rng));
+  for (int i = -4000; i <= 4000; ++i) {
+    const float tie = static_cast<float>(i) + 0.5f;
+    xs.push_back(tie);
+    xs.push_back(std::nextafter(tie, 0.0f));
+    xs.push_back(std::nextafter(tie, 2.0f * tie));
+  }
+  for (const float x : xs) {
+    if (std::fabs(x) < 2147483520.0f) {
+      ASSERT_EQ(RoundToInt(x), std::lround(x)) << x;
+    }
+  }
+  EXPECT_EQ(RoundToInt(std::nanf("")), INT32_MIN);
+  EXPECT_EQ(RoundToInt(3e9f), INT32_MIN);
+  EXPECT_EQ(RoundToInt(-INFINITY), INT32_MIN);
+}
 
 TEST(DetectTest, FindsADiscWithSubPixelCentroidReadingFewPixels) {
   Omni o;

@@ -6,6 +6,7 @@
 #include "core/common/blob.h"
 #include "core/common/bytes.h"
 #include "core/common/crc32.h"
+#include "core/common/round.h"
 
 namespace bv {
 
@@ -309,8 +310,8 @@ class FeatureSampler {
  private:
   Sample At(float du, float dv) {
     Sample s;
-    const int u = static_cast<int>(std::lround(c_.u_px + du));
-    const int v = static_cast<int>(std::lround(c_.v_px + dv));
+    const int u = RoundToInt(c_.u_px + du);
+    const int v = RoundToInt(c_.v_px + dv);
     if (!image_.contains(u, v)) return s;
     s.valid = true;
     s.p = image_.at(u, v);

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/common/round.h"
+
 namespace bv {
 
 Status BallFinder::Init(const ScanlineTableBase& scanlines, const BallFinderConfig& config) {
@@ -307,8 +309,8 @@ uint32_t BallFinder::Attend(const YuyvImage& image, const ColorLut& lut,
           static_cast<int32_t>((a & 4095) + ((a >> 16) & 4095) + (b & 4095) + ((b >> 16) & 4095));
       zi = static_cast<float>(sum - 8192) * kInvSigma;
     }
-    const int u = static_cast<int>(std::lround(prediction->u_px + prediction->sigma_px * z[0]));
-    const int v = static_cast<int>(std::lround(prediction->v_px + prediction->sigma_px * z[1]));
+    const int u = RoundToInt(prediction->u_px + prediction->sigma_px * z[0]);
+    const int v = RoundToInt(prediction->v_px + prediction->sigma_px * z[1]);
     if (!image.contains(u, v)) continue;
     attention_u_[attention_count_] = static_cast<int16_t>(u);
     attention_v_[attention_count_] = static_cast<int16_t>(v);
@@ -490,15 +492,15 @@ void BallFinder::SoftCentroid(const YuyvImage& image, const ColorLut& lut, const
       float bg[3] = {0, 0, 0}, in[3] = {0, 0, 0};
       bool have_bg = false;
       for (int k = 1; k <= kSteps && !have_bg; ++k) {
-        const int bx = x + static_cast<int>(std::lround(static_cast<float>(k) * ex));
-        const int by = y + static_cast<int>(std::lround(static_cast<float>(k) * ey));
+        const int bx = x + RoundToInt(static_cast<float>(k) * ex);
+        const int by = y + RoundToInt(static_cast<float>(k) * ey);
         if (mask.NearAt(bx, by)) continue;
         Load(image.at(u0 + bx, v0 + by), bg);
         have_bg = true;
       }
       for (int k = 1; k <= kSteps; ++k) {
-        const int ix = x - static_cast<int>(std::lround(static_cast<float>(k) * ex));
-        const int iy = y - static_cast<int>(std::lround(static_cast<float>(k) * ey));
+        const int ix = x - RoundToInt(static_cast<float>(k) * ex);
+        const int iy = y - RoundToInt(static_cast<float>(k) * ey);
         if (!mask.InteriorAt(ix, iy)) continue;
         Load(image.at(u0 + ix, v0 + iy), in);
         ball = in;
