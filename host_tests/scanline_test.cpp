@@ -199,11 +199,9 @@ TEST(ScanlineTest, ATableWithLittleRoomToSpareIsTheSameTableOrRefusedWhole) {
   ExpectSameOrRefused<17001>(want, Fit::kMust);  // an odd capacity
 }
 
-TEST(ScanlineTest, KeptPairsAreTheKeptSamplesInOrderAndFollowsMeansTheSampleBeforeWasKept) {
-  // A large mirror ring leaves gaps over 255 px (escape entries) on rows through the body; every
-  // sample's pair word is a hash of its position, and a third of them are kept.
-  constexpr int kW = 1280, kH = 960;
-  auto t = std::make_unique<ScanlineTable<65535>>();
+// A large mirror ring on a 1280 x 960 frame: rows through the body leave gaps over 255 px (escape
+// entries); the outer diameter sets how dense the outer samples are.
+OmniScanConfig BigRing(float outer_diameter_px) {
   OmniScanConfig c;
   c.center_u = 640.3f;
   c.center_v = 480.2f;
@@ -213,14 +211,27 @@ TEST(ScanlineTest, KeptPairsAreTheKeptSamplesInOrderAndFollowsMeansTheSampleBefo
   c.diameter.at_px[0] = 300;
   c.diameter.at_px[1] = 470;
   c.diameter.diameter_px[0] = 24;
-  c.diameter.diameter_px[1] = 12;
-  ASSERT_TRUE(t->BuildOmni(c, kW, kH).ok());
-  std::vector<uint8_t> frame(static_cast<size_t>(kW) * kH * 2);
-  uint32_t seed = 7;
+  c.diameter.diameter_px[1] = outer_diameter_px;
+  return c;
+}
+
+// A YUYV frame of pseudo-random bytes.
+std::vector<uint8_t> HashFrame(int w, int h, uint32_t seed) {
+  std::vector<uint8_t> frame(static_cast<size_t>(w) * h * 2);
   for (uint8_t& b : frame) {
     seed = seed * 1664525u + 1013904223u;
     b = static_cast<uint8_t>(seed >> 24);
   }
+  return frame;
+}
+
+TEST(ScanlineTest, KeptPairsAreTheKeptSamplesInOrderAndFollowsMeansTheSampleBeforeWasKept) {
+  // A large mirror ring leaves gaps over 255 px (escape entries) on rows through the body; every
+  // sample's pair word is a hash of its position, and a third of them are kept.
+  constexpr int kW = 1280, kH = 960;
+  auto t = std::make_unique<ScanlineTable<65535>>();
+  ASSERT_TRUE(t->BuildOmni(BigRing(12.0f), kW, kH).ok());
+  const std::vector<uint8_t> frame = HashFrame(kW, kH, 7);
   auto keep = [](uint32_t w) { return (w >> 8 & 0xFFu) % 3 == 0; };
   struct Hit {
     int u, v;
@@ -262,25 +273,10 @@ TEST(ScanlineTest, KeptPairsInABoxAreTheSameCallsAsTheBoxTestedOneByOne) {
   // with the same box, on an omni table with escapes and a persp lattice: every call, in order.
   constexpr int kW = 1280, kH = 960;
   auto omni = std::make_unique<ScanlineTable<65535>>();
-  OmniScanConfig c;
-  c.center_u = 640.3f;
-  c.center_v = 480.2f;
-  c.inner_radius_px = 300;
-  c.outer_radius_px = 470;
-  c.diameter.count = 2;
-  c.diameter.at_px[0] = 300;
-  c.diameter.at_px[1] = 470;
-  c.diameter.diameter_px[0] = 24;
-  c.diameter.diameter_px[1] = 4;
-  ASSERT_TRUE(omni->BuildOmni(c, kW, kH).ok());
+  ASSERT_TRUE(omni->BuildOmni(BigRing(4.0f), kW, kH).ok());
   auto persp = std::make_unique<ScanlineTable<65535>>();
   ASSERT_TRUE(persp->BuildPersp(ReferencePerspScanConfig(), kW, kH).ok());
-  std::vector<uint8_t> frame(static_cast<size_t>(kW) * kH * 2);
-  uint32_t seed = 11;
-  for (uint8_t& b : frame) {
-    seed = seed * 1664525u + 1013904223u;
-    b = static_cast<uint8_t>(seed >> 24);
-  }
+  const std::vector<uint8_t> frame = HashFrame(kW, kH, 11);
   struct Hit {
     int u, v;
     uint32_t w;
