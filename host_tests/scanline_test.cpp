@@ -215,6 +215,14 @@ OmniScanConfig BigRing(float outer_diameter_px) {
   return c;
 }
 
+// One hit(u, v, word, follows) of ForEachKeptPair.
+struct KeptHit {
+  int u, v;
+  uint32_t w;
+  bool follows;
+  bool operator==(const KeptHit&) const = default;
+};
+
 // A YUYV frame of pseudo-random bytes.
 std::vector<uint8_t> HashFrame(int w, int h, uint32_t seed) {
   std::vector<uint8_t> frame(static_cast<size_t>(w) * h * 2);
@@ -233,13 +241,7 @@ TEST(ScanlineTest, KeptPairsAreTheKeptSamplesInOrderAndFollowsMeansTheSampleBefo
   ASSERT_TRUE(t->BuildOmni(BigRing(12.0f), kW, kH).ok());
   const std::vector<uint8_t> frame = HashFrame(kW, kH, 7);
   auto keep = [](uint32_t w) { return (w >> 8 & 0xFFu) % 3 == 0; };
-  struct Hit {
-    int u, v;
-    uint32_t w;
-    bool follows;
-    bool operator==(const Hit&) const = default;
-  };
-  std::vector<Hit> want, got;
+  std::vector<KeptHit> want, got;
   int row_v = -1, in_row = 0, escapes = 0;
   bool prev_kept = false;
   t->ForEachSample(
@@ -264,7 +266,7 @@ TEST(ScanlineTest, KeptPairsAreTheKeptSamplesInOrderAndFollowsMeansTheSampleBefo
   ASSERT_EQ(got.size(), want.size());
   for (size_t i = 0; i < want.size(); ++i) ASSERT_TRUE(got[i] == want[i]) << "hit " << i;
   int follows = 0;
-  for (const Hit& h : got) follows += h.follows;
+  for (const KeptHit& h : got) follows += h.follows;
   EXPECT_GT(follows, 0);
 }
 
@@ -277,12 +279,6 @@ TEST(ScanlineTest, KeptPairsInABoxAreTheSameCallsAsTheBoxTestedOneByOne) {
   auto persp = std::make_unique<ScanlineTable<65535>>();
   ASSERT_TRUE(persp->BuildPersp(ReferencePerspScanConfig(), kW, kH).ok());
   const std::vector<uint8_t> frame = HashFrame(kW, kH, 11);
-  struct Hit {
-    int u, v;
-    uint32_t w;
-    bool follows;
-    bool operator==(const Hit&) const = default;
-  };
   ChromaBox narrow;  // a ball-like box: few samples kept
   narrow.u_min = 40, narrow.u_max = 90, narrow.v_min = 150, narrow.v_max = 230;
   ChromaBox wide;  // most kept: runs of neighbours that follow each other
@@ -293,7 +289,7 @@ TEST(ScanlineTest, KeptPairsInABoxAreTheSameCallsAsTheBoxTestedOneByOne) {
                                      static_cast<const ScanlineTableBase*>(persp.get())}) {
     for (const ChromaBox& b : {narrow, wide, wraps, ChromaBox{}}) {
       const PairChromaTest box(b);
-      std::vector<Hit> want, got;
+      std::vector<KeptHit> want, got;
       t->ForEachKeptPair(
           frame.data(), kW * 2, [&box](uint32_t w) { return box.Holds(w); },
           [&](int u, int v, uint32_t w, bool follows) {

@@ -129,9 +129,9 @@ class FieldFeatureExtractor {
   };
   void ScanRay(const YuyvImage& img, const ColorLut& lut, int ray, FieldFeatures& out);
   void AddLinePoint(float r_in, float r_out, float cs, float sn, int ray, FieldFeatures& out);
-  // Foot point of an obstacle at image radius r on this ray (within the obstacle range).
   // Hosts: hints the first kRayLookAhead samples of `ray` (its walk hints the rest as it goes).
   void HintRay(const uint8_t* data, int ray) const;
+  // Foot point of an obstacle at image radius r on this ray (within the obstacle range).
   void SetFoot(int ray, float r, float cs, float sn);
   struct GoalWalk {                  // one ray's goal evidence (ScanRay)
     int end = -1;                    // last carpet sample before the first run off it that lasted

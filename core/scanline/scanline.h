@@ -157,12 +157,7 @@ class ScanlineTableBase {
         ++c.v;
         continue;
       }
-      uint32_t step = delta_[c.entry++];
-      while (step == 0) {
-        c.u += 255;
-        step = delta_[c.entry++];
-      }
-      c.u += static_cast<int>(step);
+      c.u += StepAt(c.entry);
     }
     return n;
   }
@@ -196,10 +191,9 @@ class ScanlineTableBase {
   }
 
   /// ForEachKeptPair keeping the words inside `box` (PairChromaTest::Holds): the same calls in the
-  /// same order. On x86-64 hosts with AVX2 a row's samples are decoded a chunk at a time and
-  /// tested 8 at once (one gather, two saturating subtractions); the per-sample branch of the loop
-  /// above, which the host spends most of the front end's time in, goes. Elsewhere (the M7 tests
-  /// a word in two instructions already) it is the loop above.
+  /// same order. On x86-64 hosts with AVX2, 16 samples a step (KeptPairsAvx2): the host spent
+  /// most of the front end's time decoding, hinting and branching sample by sample. Elsewhere (the
+  /// M7 tests a word in two instructions already) it is the loop above.
   template <typename HitFn>
   void ForEachKeptPair(const uint8_t* data, int stride, const PairChromaTest& box,
                        HitFn&& hit) const {
@@ -347,16 +341,22 @@ class ScanlineTableBase {
           }
         }
         if (p == end) break;
-        uint32_t step = delta_[p++];
-        while (__builtin_expect(step == 0, 0)) {
-          u += 255;
-          step = delta_[p++];
-        }
-        u += static_cast<int>(step);
+        u += StepAt(p);
       }
     }
   }
 #endif
+  // The column step from the sample whose entry ends at `entry` to the next one, escapes (0, 255
+  // more) included; `entry` moves past the next sample's entry (ForEachInRow's decoding, by index).
+  int StepAt(uint32_t& entry) const {
+    int advance = 0;
+    uint32_t step = delta_[entry++];
+    while (__builtin_expect(step == 0, 0)) {
+      advance += 255;
+      step = delta_[entry++];
+    }
+    return advance + static_cast<int>(step);
+  }
   // The build's buffer for one row's sample columns: the table's unwritten tail.
   uint16_t* RowBuffer(int& room) const;
   // lead_rows_ from the finished table.
