@@ -94,6 +94,58 @@ TEST(OmniModel, AzimuthHarmonicsTurnDirectionsAndInvert) {
   EXPECT_LT(max_px, 2e-3);
 }
 
+// A direction prepared once (the feature rays) maps each radius as the pixel map does, with and
+// without azimuth harmonics, on both sides of a sector boundary and inside the first vector (the
+// quadratic segment), and refuses what the pixel map refuses.
+TEST(OmniModel, PreparedDirectionMapsAsThePixelDoes) {
+  OmniCalibration turned = Synthetic();
+  const float h[4] = {-0.0047f, -0.0052f, 0.003f, -0.002f};
+  for (int k = 0; k < 4; ++k) turned.azimuth_harmonics_rad[k] = h[k];
+  for (const OmniCalibration& c : {Synthetic(), turned}) {
+    double max_rel = 0;
+    int n = 0, beyond = 0;
+    for (float a = 0.003f; a < 2 * kPi; a += 0.0437f) {
+      // Not unit length, as a Q14 ray direction is not: t is in its units.
+      const float du = 1.0003f * std::cos(a), dv = 1.0003f * std::sin(a);
+      OmniGroundDirection d;
+      ASSERT_TRUE(OmniPrepareGroundDirection(c, du, dv, d).ok());
+      for (float t = 2; t < 240; t += 1.9f) {
+        float x = 0, y = 0, xs = 0, ys = 0;
+        const Status want = OmniPixelToGround(c, c.center_u + t * du, c.center_v + t * dv, x, y);
+        const Status got = OmniStepToGround(c, d, t, xs, ys);
+        ASSERT_EQ(got.code(), want.code()) << "a " << a << " t " << t;
+        if (!want.ok()) {
+          ++beyond;
+          continue;
+        }
+        // The pixel map's input is the pixel's float position, rounded to ~6e-5 px near u = 500:
+        // the tolerance is what that rounding moves the ground point by (up to 2 m a pixel on the
+        // map's last segment).
+        float x2 = 0, y2 = 0;
+        if (!OmniStepToGround(c, d, t + 0.01f, x2, y2).ok()) continue;
+        const double per_px = std::hypot(x2 - xs, y2 - ys) / (0.01 * d.step_px);
+        max_rel = std::max(max_rel, std::hypot(xs - x, ys - y) / (1e-6 + 1.5e-4 * per_px));
+        ++n;
+      }
+    }
+    EXPECT_GT(n, 10000);
+    EXPECT_GT(beyond, 500);
+    EXPECT_LT(max_rel, 1.0);
+  }
+  OmniCalibration c = Synthetic();
+  OmniGroundDirection d;
+  float x = 0, y = 0;
+  EXPECT_EQ(OmniStepToGround(c, d, 10, x, y).code(), StatusCode::kFailedPrecondition);
+  EXPECT_EQ(OmniPrepareGroundDirection(c, 0, 0, d).code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(OmniPrepareGroundDirection(c, NAN, 1, d).code(), StatusCode::kInvalidArgument);
+  ASSERT_TRUE(OmniPrepareGroundDirection(c, 0.6f, 0.8f, d).ok());
+  EXPECT_EQ(OmniStepToGround(c, d, NAN, x, y).code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(OmniStepToGround(c, d, -1, x, y).code(), StatusCode::kInvalidArgument);
+  c.valid = false;
+  EXPECT_EQ(OmniStepToGround(c, d, 10, x, y).code(), StatusCode::kFailedPrecondition);
+  EXPECT_EQ(OmniPrepareGroundDirection(c, 0.6f, 0.8f, d).code(), StatusCode::kFailedPrecondition);
+}
+
 TEST(OmniModel, SupportVectorsMapToTheirDistances) {
   const OmniCalibration c = Synthetic();
   for (int s = 0; s < OmniCalibration::kDirections; s += 7) {

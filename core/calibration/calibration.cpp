@@ -169,6 +169,58 @@ float OmniAzimuthCorrection(const OmniCalibration& cal, float phi) {
   return HasAzimuthTurn(cal) ? AzimuthTurn(cal, std::cos(phi), std::sin(phi)) : 0.0f;
 }
 
+namespace {
+// The direction's terms of the pixel-to-ground map: which support vectors, the inner quadratic
+// and the ground bearing. (c, s) is the unit direction, phi its image angle.
+void DirectionTerms(const OmniCalibration& cal, float phi, float c, float s, bool turned,
+                    OmniGroundDirection& d) {
+  const float pos = WrapTwoPi(phi) / kSectorRad - 0.5f;  // in units of sector centres
+  const float fl = std::floor(pos);
+  d.blend = pos - fl;
+  int s0 = static_cast<int>(fl);
+  if (s0 < 0) s0 += OmniCalibration::kDirections;
+  if (s0 >= OmniCalibration::kDirections) s0 -= OmniCalibration::kDirections;
+  d.sector = static_cast<int16_t>(s0);
+  const SupportAt sv(cal, phi);
+  d.last_px = sv[OmniCalibration::kEdges - 1];
+  d.quadratic = InnerQuadratic(cal, sv, d.quad_a, d.quad_b);
+  const float turn = turned && HasAzimuthTurn(cal) ? AzimuthTurn(cal, c, s) : 0.0f;
+  const float theta =
+      static_cast<float>(cal.image_angle_sign) * (phi - cal.image_angle_offset_rad - turn);
+  d.cos_bearing = std::cos(theta);
+  d.sin_bearing = std::sin(theta);
+}
+
+// Piecewise linear from the image radius to the viewing angle psi = atan(d / f_O), through
+// (0 px, 0) (the centre sees the nadir) and the support vectors.
+Status RadiusToGround(const OmniCalibration& cal, const OmniGroundDirection& d, float r, float& x_m,
+                      float& y_m) {
+  if (r > d.last_px + 0.01f) {
+    return Status(StatusCode::kOutOfRange, "omni pixel beyond the calibrated distance map");
+  }
+  r = std::min(r, d.last_px);  // within rounding of the last vector
+  const float* a = cal.support_px[d.sector];
+  const float* b = cal.support_px[(d.sector + 1) % OmniCalibration::kDirections];
+  const float w = d.blend;
+  const auto sv = [&](int k) { return (1 - w) * a[k] + w * b[k]; };  // SupportAt's blend
+  int k = 0;
+  while (r > sv(k)) ++k;  // r <= the last vector, checked above
+  float psi = 0;
+  if (k == 0 && d.quadratic) {
+    psi = d.quad_a * r + d.quad_b * r * r;
+  } else {
+    const float r0 = k == 0 ? 0.0f : sv(k - 1);
+    const float psi0 = k == 0 ? 0.0f : EdgePsi(cal, k - 1);
+    const float psi1 = EdgePsi(cal, k);
+    psi = psi0 + (psi1 - psi0) * (r - r0) / (sv(k) - r0);
+  }
+  const float dist_m = cal.viewpoint_z_m * std::tan(psi);
+  x_m = dist_m * d.cos_bearing;
+  y_m = dist_m * d.sin_bearing;
+  return Status::Ok();
+}
+}  // namespace
+
 Status OmniPixelToGround(const OmniCalibration& cal, float u_px, float v_px, float& x_m,
                          float& y_m) {
   if (!cal.valid) return Status(StatusCode::kFailedPrecondition, "omni calibration not valid");
@@ -177,35 +229,33 @@ Status OmniPixelToGround(const OmniCalibration& cal, float u_px, float v_px, flo
   }
   const float du = u_px - cal.center_u, dv = v_px - cal.center_v;
   const float rho = std::sqrt(du * du + dv * dv);
-  float r = rho;
-  const float phi = std::atan2(dv, du);
-  const SupportAt sv(cal, phi);
-  if (r > sv[OmniCalibration::kEdges - 1] + 0.01f) {
-    return Status(StatusCode::kOutOfRange, "omni pixel beyond the calibrated distance map");
+  OmniGroundDirection d;
+  const bool turned = rho > 1e-3f;
+  DirectionTerms(cal, std::atan2(dv, du), turned ? du / rho : 1.0f, turned ? dv / rho : 0.0f,
+                 turned, d);
+  return RadiusToGround(cal, d, rho, x_m, y_m);
+}
+
+Status OmniPrepareGroundDirection(const OmniCalibration& cal, float du, float dv,
+                                  OmniGroundDirection& out) {
+  out = OmniGroundDirection{};
+  if (!cal.valid) return Status(StatusCode::kFailedPrecondition, "omni calibration not valid");
+  const float len = std::sqrt(du * du + dv * dv);
+  if (!Finite(du) || !Finite(dv) || !(len > 0.0f)) {
+    return Status(StatusCode::kInvalidArgument, "omni direction is not finite and non-zero");
   }
-  r = std::min(r, sv[OmniCalibration::kEdges - 1]);  // within rounding of the last vector
-  // Piecewise linear from the image radius to the viewing angle psi = atan(d / f_O), through
-  // (0 px, 0) (the centre sees the nadir) and the support vectors.
-  int k = 0;
-  while (r > sv[k]) ++k;  // r <= sv[kEdges - 1] checked above
-  float psi = 0;
-  float qa = 0, qb = 0;
-  if (k == 0 && InnerQuadratic(cal, sv, qa, qb)) {
-    psi = qa * r + qb * r * r;
-  } else {
-    const float r0 = k == 0 ? 0.0f : sv[k - 1];
-    const float psi0 = k == 0 ? 0.0f : EdgePsi(cal, k - 1);
-    const float psi1 = EdgePsi(cal, k);
-    psi = psi0 + (psi1 - psi0) * (r - r0) / (sv[k] - r0);
-  }
-  const float dist_m = cal.viewpoint_z_m * std::tan(psi);
-  const float turn =
-      rho > 1e-3f && HasAzimuthTurn(cal) ? AzimuthTurn(cal, du / rho, dv / rho) : 0.0f;
-  const float theta =
-      static_cast<float>(cal.image_angle_sign) * (phi - cal.image_angle_offset_rad - turn);
-  x_m = dist_m * std::cos(theta);
-  y_m = dist_m * std::sin(theta);
+  DirectionTerms(cal, std::atan2(dv, du), du / len, dv / len, true, out);
+  out.step_px = len;
   return Status::Ok();
+}
+
+Status OmniStepToGround(const OmniCalibration& cal, const OmniGroundDirection& dir, float t,
+                        float& x_m, float& y_m) {
+  if (!cal.valid || dir.sector < 0) {
+    return Status(StatusCode::kFailedPrecondition, "omni direction not prepared");
+  }
+  if (!Finite(t) || t < 0.0f) return Status(StatusCode::kInvalidArgument, "omni step not finite");
+  return RadiusToGround(cal, dir, t * dir.step_px, x_m, y_m);
 }
 
 Status OmniGroundToPixel(const OmniCalibration& cal, float x_m, float y_m, float& u_px,

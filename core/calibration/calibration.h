@@ -115,6 +115,26 @@ Status PerspProject(const PerspCalibration& cal, const Eigen::Vector3f& p_robot,
 /// Image point -> ground point (z = 0) in the robot frame. kOutOfRange beyond the calibrated map.
 Status OmniPixelToGround(const OmniCalibration& cal, float u_px, float v_px, float& x_m,
                          float& y_m);
+/// The terms of OmniPixelToGround that depend only on the direction from the image centre, for a
+/// direction walked radius by radius (the feature rays): no arc tangent, sine or cosine per pixel.
+struct OmniGroundDirection {
+  int16_t sector = -1;           // support vectors of sector and sector + 1 (-1: not prepared)
+  float blend = 0;               // weight of the second
+  float last_px = 0;             // the blended last support vector
+  float quad_a = 0, quad_b = 0;  // psi = a r + b r^2 inside the first vector, when quadratic
+  bool quadratic = false;
+  float cos_bearing = 1, sin_bearing = 0;  // the robot-frame bearing of the ground points
+  float step_px = 1;                       // image radius per unit step
+};
+/// Prepares the pixels centre + t (du, dv), t >= 0. Errors: kFailedPrecondition (calibration not
+/// valid), kInvalidArgument (direction not finite, or zero).
+Status OmniPrepareGroundDirection(const OmniCalibration& cal, float du, float dv,
+                                  OmniGroundDirection& out);
+/// OmniPixelToGround of the pixel centre + t (du, dv) of a prepared direction: the same map, up
+/// to float rounding of the pixel's position. Errors: kFailedPrecondition (not prepared),
+/// kInvalidArgument (t not finite or negative), kOutOfRange (beyond the calibrated map).
+Status OmniStepToGround(const OmniCalibration& cal, const OmniGroundDirection& dir, float t,
+                        float& x_m, float& y_m);
 /// Ground point -> image point (inverse of the above). kOutOfRange outside the calibrated range.
 Status OmniGroundToPixel(const OmniCalibration& cal, float x_m, float y_m, float& u_px,
                          float& v_px);

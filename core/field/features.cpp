@@ -71,6 +71,12 @@ Status FieldFeatureExtractor::Init(const OmniScanConfig& scan, const OmniCalibra
   for (int i = 0; i < scan.features.rays; ++i) {
     const OmniRayQ q = MakeOmniRay(scan, i);
     rays_[i] = q;
+    // The same direction ScanRay walks (its cs, sn): no trigonometry per line point.
+    if (!OmniPrepareGroundDirection(calibration, static_cast<float>(q.cs_q14) * (1.0f / 16384.0f),
+                                    static_cast<float>(q.sn_q14) * (1.0f / 16384.0f), ground_[i])
+             .ok()) {
+      ground_[i] = OmniGroundDirection{};
+    }
     angle_[i] = OmniFeatureRayAngle(scan, i);
     if (OmniFeatureRayBlocked(scan, i)) blocked_ |= uint64_t{1} << i;
     int k = 0;
@@ -101,18 +107,26 @@ bool FieldFeatureExtractor::Ground(float u, float v, float& x, float& y) const {
   return OmniPixelToGround(*cal_, u, v, x, y).ok();
 }
 
-float FieldFeatureExtractor::GroundDistance(float r, float cs, float sn) const {
+bool FieldFeatureExtractor::RayGround(int ray, float r, float cs, float sn, float& x,
+                                      float& y) const {
+  // The prepared direction holds while the model's centre is the rays' (re-centring moves it).
+  if (ground_[ray].sector >= 0 && cal_->center_u == scan_.center_u &&
+      cal_->center_v == scan_.center_v) {
+    return OmniStepToGround(*cal_, ground_[ray], r, x, y).ok();
+  }
+  return Ground(scan_.center_u + r * cs, scan_.center_v + r * sn, x, y);
+}
+
+float FieldFeatureExtractor::GroundDistance(int ray, float r, float cs, float sn) const {
   float x, y;
-  if (!Ground(scan_.center_u + r * cs, scan_.center_v + r * sn, x, y)) return -1.0f;
+  if (!RayGround(ray, r, cs, sn, x, y)) return -1.0f;
   return std::hypot(x, y);
 }
 
 void FieldFeatureExtractor::AddLinePoint(float r_in, float r_out, float cs, float sn, int ray,
                                          FieldFeatures& out) {
   float x0, y0, x1, y1;
-  const float cu = scan_.center_u, cv = scan_.center_v;
-  if (!Ground(cu + r_in * cs, cv + r_in * sn, x0, y0) ||
-      !Ground(cu + r_out * cs, cv + r_out * sn, x1, y1)) {
+  if (!RayGround(ray, r_in, cs, sn, x0, y0) || !RayGround(ray, r_out, cs, sn, x1, y1)) {
     return;
   }
   const float width = std::hypot(x1 - x0, y1 - y0);
@@ -138,20 +152,20 @@ void FieldFeatureExtractor::AddLinePoint(float r_in, float r_out, float cs, floa
 // radially). Elsewhere the carpet runs on for the border.
 void FieldFeatureExtractor::GoalEvidence(int ray, const GoalWalk& g, float cs, float sn) {
   if (g.end < 0) return;
-  const float end_m = GroundDistance(Mid(g.end, g.end + 1), cs, sn);
+  const float end_m = GroundDistance(ray, Mid(g.end, g.end + 1), cs, sn);
   if (!(end_m > 0.0f) || end_m > config_.max_line_range_m) return;
   float goal_m = -1.0f;
   bool post = false;
   if (g.post_w0 >= 0) {
     const float w1 =
-        GroundDistance(Mid(g.post_w1, std::min(g.post_w1 + 1, inside_[ray] - 1)), cs, sn);
+        GroundDistance(ray, Mid(g.post_w1, std::min(g.post_w1 + 1, inside_[ray] - 1)), cs, sn);
     if (w1 < 0.0f || w1 - end_m >= kPostMinM) {
       goal_m = end_m;
       post = true;
     }
   }
   const float depth = config_.goal_depth_m;
-  const float line_m = !post && g.break_r > 0.0f ? GroundDistance(g.break_r, cs, sn) : -1.0f;
+  const float line_m = !post && g.break_r > 0.0f ? GroundDistance(ray, g.break_r, cs, sn) : -1.0f;
   if (!post && line_m > 0.0f && end_m - line_m >= kGoalMinDepths * depth &&
       end_m - line_m <= kGoalMaxDepths * depth + kGoalDepthSlackM) {
     goal_m = line_m;
@@ -291,8 +305,7 @@ void FieldFeatureExtractor::HintRay(const uint8_t* data, int ray) const {
 
 void FieldFeatureExtractor::SetFoot(int ray, float r, float cs, float sn) {
   float x, y;
-  if (Ground(scan_.center_u + r * cs, scan_.center_v + r * sn, x, y) &&
-      std::hypot(x, y) <= config_.max_obstacle_range_m) {
+  if (RayGround(ray, r, cs, sn, x, y) && std::hypot(x, y) <= config_.max_obstacle_range_m) {
     hits_[ray].foot_r = r;
     hits_[ray].foot_m = std::hypot(x, y);
   }

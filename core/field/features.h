@@ -142,7 +142,7 @@ class FieldFeatureExtractor {
   };
   void GoalEvidence(int ray, const GoalWalk& g, float cs, float sn);
   void MergeGoals(FieldFeatures& out);
-  float GroundDistance(float r, float cs, float sn) const;
+  float GroundDistance(int ray, float r, float cs, float sn) const;
   void MergeObstacles(const YuyvImage& img, const ColorLut& lut, FieldFeatures& out);
   bool DarkAt(const YuyvImage& img, const ColorLut& lut, float angle, float r, FieldFeatures& out);
   void Pixel(float angle, float r, int& u, int& v) const;
@@ -155,6 +155,9 @@ class FieldFeatureExtractor {
   // Ray i's angle unwrapped to lie within pi of `near`.
   float AngleNear(int ray, float near) const;
   bool Ground(float u, float v, float& x, float& y) const;
+  // Ground of the pixel at image radius r on ray `ray` (direction cs, sn): its prepared direction
+  // while the model's centre is the rays', else Ground.
+  bool RayGround(int ray, float r, float cs, float sn, float& x, float& y) const;
 
   OmniScanConfig scan_;
   const OmniCalibration* cal_ = nullptr;
@@ -165,6 +168,7 @@ class FieldFeatureExtractor {
   void BuildWalk(int stride);
   uint8_t inside_[OmniFeatureRays::kMaxRays] = {};  // leading samples of each ray in the frame
   OmniRayQ rays_[OmniFeatureRays::kMaxRays] = {};
+  OmniGroundDirection ground_[OmniFeatureRays::kMaxRays] = {};
   float angle_[OmniFeatureRays::kMaxRays] = {};  // each ray's image angle (OmniFeatureRayAngle)
   uint64_t blocked_ = 0;                         // rays that cannot be moved out of a mask sector
   static_assert(OmniFeatureRays::kMaxRays <= 64);
