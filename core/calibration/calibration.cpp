@@ -122,18 +122,26 @@ class SupportAt {
     const float pos = WrapTwoPi(phi) / kSectorRad - 0.5f;  // in units of sector centres
     const float fl = std::floor(pos);
     w_ = pos - fl;
-    int s0 = static_cast<int>(fl);
-    if (s0 < 0) s0 += OmniCalibration::kDirections;
-    if (s0 >= OmniCalibration::kDirections) s0 -= OmniCalibration::kDirections;
-    a_ = cal.support_px[s0];
-    b_ = cal.support_px[(s0 + 1) % OmniCalibration::kDirections];
+    s0_ = static_cast<int>(fl);
+    if (s0_ < 0) s0_ += OmniCalibration::kDirections;
+    if (s0_ >= OmniCalibration::kDirections) s0_ -= OmniCalibration::kDirections;
+    Point(cal);
   }
+  // Sector s0's vectors blended with the next one's by w (a direction prepared before).
+  SupportAt(const OmniCalibration& cal, int s0, float w) : s0_(s0), w_(w) { Point(cal); }
   float operator[](int k) const { return (1 - w_) * a_[k] + w_ * b_[k]; }
+  int sector() const { return s0_; }
+  float blend() const { return w_; }
 
  private:
-  const float* a_;
-  const float* b_;
-  float w_;
+  void Point(const OmniCalibration& cal) {
+    a_ = cal.support_px[s0_];
+    b_ = cal.support_px[(s0_ + 1) % OmniCalibration::kDirections];
+  }
+  const float* a_ = nullptr;
+  const float* b_ = nullptr;
+  int s0_ = 0;
+  float w_ = 0;
 };
 
 // Inside the first support vector no edge is seen (the robot body hides the carpet start), so
@@ -174,14 +182,9 @@ namespace {
 // and the ground bearing. (c, s) is the unit direction, phi its image angle.
 void DirectionTerms(const OmniCalibration& cal, float phi, float c, float s, bool turned,
                     OmniGroundDirection& d) {
-  const float pos = WrapTwoPi(phi) / kSectorRad - 0.5f;  // in units of sector centres
-  const float fl = std::floor(pos);
-  d.blend = pos - fl;
-  int s0 = static_cast<int>(fl);
-  if (s0 < 0) s0 += OmniCalibration::kDirections;
-  if (s0 >= OmniCalibration::kDirections) s0 -= OmniCalibration::kDirections;
-  d.sector = static_cast<int16_t>(s0);
   const SupportAt sv(cal, phi);
+  d.sector = static_cast<int16_t>(sv.sector());
+  d.blend = sv.blend();
   d.last_px = sv[OmniCalibration::kEdges - 1];
   d.quadratic = InnerQuadratic(cal, sv, d.quad_a, d.quad_b);
   const float turn = turned && HasAzimuthTurn(cal) ? AzimuthTurn(cal, c, s) : 0.0f;
@@ -199,20 +202,17 @@ Status RadiusToGround(const OmniCalibration& cal, const OmniGroundDirection& d, 
     return Status(StatusCode::kOutOfRange, "omni pixel beyond the calibrated distance map");
   }
   r = std::min(r, d.last_px);  // within rounding of the last vector
-  const float* a = cal.support_px[d.sector];
-  const float* b = cal.support_px[(d.sector + 1) % OmniCalibration::kDirections];
-  const float w = d.blend;
-  const auto sv = [&](int k) { return (1 - w) * a[k] + w * b[k]; };  // SupportAt's blend
+  const SupportAt sv(cal, d.sector, d.blend);
   int k = 0;
-  while (r > sv(k)) ++k;  // r <= the last vector, checked above
+  while (r > sv[k]) ++k;  // r <= the last vector, checked above
   float psi = 0;
   if (k == 0 && d.quadratic) {
     psi = d.quad_a * r + d.quad_b * r * r;
   } else {
-    const float r0 = k == 0 ? 0.0f : sv(k - 1);
+    const float r0 = k == 0 ? 0.0f : sv[k - 1];
     const float psi0 = k == 0 ? 0.0f : EdgePsi(cal, k - 1);
     const float psi1 = EdgePsi(cal, k);
-    psi = psi0 + (psi1 - psi0) * (r - r0) / (sv(k) - r0);
+    psi = psi0 + (psi1 - psi0) * (r - r0) / (sv[k] - r0);
   }
   const float dist_m = cal.viewpoint_z_m * std::tan(psi);
   x_m = dist_m * d.cos_bearing;

@@ -168,7 +168,7 @@ class FieldFeatureExtractor {
   void BuildWalk(int stride);
   uint8_t inside_[OmniFeatureRays::kMaxRays] = {};  // leading samples of each ray in the frame
   OmniRayQ rays_[OmniFeatureRays::kMaxRays] = {};
-  OmniGroundDirection ground_[OmniFeatureRays::kMaxRays] = {};
+  OmniGroundDirection ground_[OmniFeatureRays::kMaxRays] = {};  // each ray's map terms (RayGround)
   float angle_[OmniFeatureRays::kMaxRays] = {};  // each ray's image angle (OmniFeatureRayAngle)
   uint64_t blocked_ = 0;                         // rays that cannot be moved out of a mask sector
   static_assert(OmniFeatureRays::kMaxRays <= 64);
