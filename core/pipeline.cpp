@@ -524,9 +524,7 @@ void Pipeline::Predict(uint64_t t_us) {
   pred_omni_ = pred_persp_ = ImagePrediction{};
   Eigen::Vector3f p, v;
   BallMode mode;
-  BallState probe;
-  filter_.FillState(t_us, 0, probe);
-  if (probe.found && filter_.StateAt(t_us, p, v, mode)) {
+  if (filter_.HasStateAt(t_us) && filter_.StateAt(t_us, p, v, mode)) {
     handover_.valid = false;
     PredictAt(p);
     return;

@@ -1225,6 +1225,10 @@ int BallFilter::ContactsAfter(uint64_t t_us, uint64_t* t_out, float* x_out, floa
   return out;
 }
 
+bool BallFilter::HasStateAt(uint64_t t_us) const {
+  return tracking_ && fit_.ok && t_us <= t_ref_us_ + cfg_.coast_us;
+}
+
 void BallFilter::FillState(uint64_t t_us, uint32_t ahead_us, BallState& out) const {
   out.found = false;
   out.mode = BallMode::kNone;
@@ -1232,7 +1236,7 @@ void BallFilter::FillState(uint64_t t_us, uint32_t ahead_us, BallState& out) con
       static_cast<uint16_t>(~(kFlagCoasting | kFlagLost | kFlagHasBounce | kFlagHasPrediction |
                               kFlagUnobservable | kFlagPredictionUncertain));
   if (!tracking_ || !fit_.ok) return;
-  if (t_us > t_ref_us_ + cfg_.coast_us) {
+  if (!HasStateAt(t_us)) {
     out.flags |= kFlagLost;
     return;
   }

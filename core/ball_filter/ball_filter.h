@@ -119,6 +119,8 @@ class BallFilter {
   bool PredictionSigma(uint64_t now_us, uint64_t t_us, Eigen::Vector3f& sigma_m) const;
   /// Predicted floor contacts strictly after t_us (time, x, y), in order; returns the count.
   int ContactsAfter(uint64_t t_us, uint64_t* t_out, float* x_out, float* y_out, int max) const;
+  /// Whether FillState reports a ball at t_us: a track with a fit, not coasted past its limit.
+  bool HasStateAt(uint64_t t_us) const;
   /// Fills position, velocity, sigma, mode, found, coasting/lost flags, next bounce and the
   /// prediction `ahead_us` later for time t_us (the frame time). Leaves detections and ray_gap.
   void FillState(uint64_t t_us, uint32_t ahead_us, BallState& out) const;
