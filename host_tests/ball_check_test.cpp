@@ -339,5 +339,47 @@ TEST(BallCheckTest, APlaceRefusalNeedsNoPixelsAndTheTrackBonusKeepsABorderlineBa
   EXPECT_TRUE(check.Evaluate(img.view(), lut, ball, nullptr, 200.0f).pass);
 }
 
+// A tracked candidate's bonus that no logit can offset decides without the features: the same
+// verdict and score as the full look, no pixel read. A bonus within reach of the logit still looks.
+TEST(BallCheckTest, ABonusNoLogitCanOffsetDecidesWithoutReadingPixels) {
+  const RigCalibration cal = RefCalibration();
+  BallGeometry g;
+  ASSERT_TRUE(g.SetPersp(cal.persp, BallGeometryConfig{}).ok());
+  BallClassifier c;
+  std::vector<uint8_t> blob(kBallClassifierBlobMaxBytes);
+  const Result<size_t> n = SerializeBallClassifier(SmallWeights(), blob);
+  ASSERT_TRUE(n.ok());
+  ASSERT_TRUE(c.Parse(std::span(blob).first(*n)).ok());
+  const float bound = c.MaxAbsLogit();
+  EXPECT_NEAR(bound, 0.02f * (10 + 127 * (50 + 50)), 1e-3f);
+  uint32_t seed = 12345;
+  for (int t = 0; t < 2000; ++t) {
+    BallFeatures f;
+    for (float& x : f.f) {
+      seed = seed * 1664525u + 1013904223u;
+      x = static_cast<float>(seed >> 8) / 16777216.0f * 20.0f - 10.0f;
+    }
+    ASSERT_LE(std::fabs(c.Logit(f)), bound);
+  }
+  BallCheck check;
+  check.Init(&g, &c, BallCheckConfig{});
+  Canvas img(640, 480, Yuv{90, 100, 90});
+  ColorLut lut;
+  lut.Fill(ColorClass::kField);
+  const CandidateShape ball = Seen(cal.persp, {0.3f, 3.0f, 0.11f}, 0.11f);
+  const float sure = bound + 1000.0f;
+  BallFeatures feat;
+  const CandidateVerdict full = check.Evaluate(img.view(), lut, ball, &feat, sure);
+  const CandidateVerdict fast = check.Evaluate(img.view(), lut, ball, nullptr, sure);
+  EXPECT_TRUE(full.pass);
+  EXPECT_EQ(fast.pass, full.pass);
+  EXPECT_EQ(fast.score, full.score);
+  EXPECT_EQ(fast.classified, full.classified);
+  EXPECT_GT(full.pixels_read, 0u);
+  EXPECT_EQ(fast.pixels_read, 0u);
+  EXPECT_GT(check.Evaluate(img.view(), lut, ball, nullptr, bound).pixels_read, 0u)
+      << "a bonus a logit can offset: the look decides";
+}
+
 }  // namespace
 }  // namespace bv

@@ -375,6 +375,12 @@ float BallClassifier::Logit(const BallFeatures& features) const {
   return static_cast<float>(out) * w_.s2;
 }
 
+float BallClassifier::MaxAbsLogit() const {
+  int64_t bound = w_.b2 < 0 ? -int64_t{w_.b2} : int64_t{w_.b2};
+  for (int j = 0; j < w_.hidden; ++j) bound += 127 * (w_.w2[j] < 0 ? -w_.w2[j] : w_.w2[j]);
+  return static_cast<float>(bound) * std::fabs(w_.s2);
+}
+
 namespace {
 constexpr float kMaxLayerScale = 1e6f;
 constexpr int32_t kMaxBias = int32_t{1} << 24;
@@ -485,6 +491,16 @@ CandidateVerdict BallCheck::Evaluate(const YuyvImage& image, const ColorLut& lut
   const bool near_cut = !centre_inside && v.where.known && v.where.height_m < kNearCutMaxHeightM;
   const bool look = looks() && !near_cut;
   if (!look && features == nullptr) return v;
+  // A bonus no logit can offset (a tracked candidate's) decides alone, and the probability it
+  // gives is 1 in float (1 + e^-x == 1 beyond x = 17): the features are not read.
+  constexpr float kSureLogit = 20.0f;
+  if (look && features == nullptr &&
+      logit_bonus - classifier_->MaxAbsLogit() >
+          std::max(classifier_->threshold_logit(), kSureLogit)) {
+    v.classified = true;
+    v.logit = logit_bonus;
+    return v;
+  }
   BallFeatures local;
   BallFeatures& feat = features != nullptr ? *features : local;
   ComputeBallFeatures(image, lut, c, feat);

@@ -186,6 +186,8 @@ class BallClassifier {
   float Logit(const BallFeatures& features) const;
   float threshold_logit() const { return w_.threshold_logit; }
   void set_threshold_logit(float t) { w_.threshold_logit = t; }
+  /// No Logit exceeds this in magnitude (hidden activations lie in 0..127).
+  float MaxAbsLogit() const;
   const BallClassifierWeights& weights() const { return w_; }
   uint32_t id() const { return id_; }  // CRC-32 of the blob's payload; 0 when not loaded
   void Clear() { *this = BallClassifier{}; }
@@ -232,9 +234,7 @@ class BallCheck {
     config_ = config;
   }
   /// The classifier runs (on candidates whose centre lies inside the image).
-  bool looks() const {
-    return config_.use_look && classifier_ != nullptr && classifier_->loaded();
-  }
+  bool looks() const { return config_.use_look && classifier_ != nullptr && classifier_->loaded(); }
   bool active() const {
     return (config_.use_place && geometry_ != nullptr && geometry_->known()) ||
            (config_.use_look && classifier_ != nullptr && classifier_->loaded());
