@@ -312,17 +312,22 @@ TEST(BallClassifierTest, AnyAcceptedNetworkGivesAFiniteLogitEvenOnANanFeature) {
   EXPECT_TRUE(std::isfinite(c.Logit(f)));
 }
 
+// The classifier holding w as the device loads it: serialised, then parsed.
+void Load(const BallClassifierWeights& w, BallClassifier& c) {
+  std::vector<uint8_t> blob(kBallClassifierBlobMaxBytes);
+  const Result<size_t> n = SerializeBallClassifier(w, blob);
+  ASSERT_TRUE(n.ok());
+  ASSERT_TRUE(c.Parse(std::span(blob).first(*n)).ok());
+}
+
 TEST(BallCheckTest, APlaceRefusalNeedsNoPixelsAndTheTrackBonusKeepsABorderlineBall) {
   const RigCalibration cal = RefCalibration();
   BallGeometry g;
   ASSERT_TRUE(g.SetPersp(cal.persp, BallGeometryConfig{}).ok());
   BallClassifier c;
-  std::vector<uint8_t> blob(kBallClassifierBlobMaxBytes);
   BallClassifierWeights w = SmallWeights();
   w.threshold_logit = 100;  // nothing passes on its look alone
-  const Result<size_t> n = SerializeBallClassifier(w, blob);
-  ASSERT_TRUE(n.ok());
-  ASSERT_TRUE(c.Parse(std::span(blob).first(*n)).ok());
+  ASSERT_NO_FATAL_FAILURE(Load(w, c));
   BallCheck check;
   check.Init(&g, &c, BallCheckConfig{});
   ASSERT_TRUE(check.active());
@@ -346,10 +351,7 @@ TEST(BallCheckTest, ABonusNoLogitCanOffsetDecidesWithoutReadingPixels) {
   BallGeometry g;
   ASSERT_TRUE(g.SetPersp(cal.persp, BallGeometryConfig{}).ok());
   BallClassifier c;
-  std::vector<uint8_t> blob(kBallClassifierBlobMaxBytes);
-  const Result<size_t> n = SerializeBallClassifier(SmallWeights(), blob);
-  ASSERT_TRUE(n.ok());
-  ASSERT_TRUE(c.Parse(std::span(blob).first(*n)).ok());
+  ASSERT_NO_FATAL_FAILURE(Load(SmallWeights(), c));
   const float bound = c.MaxAbsLogit();
   EXPECT_NEAR(bound, 0.02f * (10 + 127 * (50 + 50)), 1e-3f);
   uint32_t seed = 12345;
