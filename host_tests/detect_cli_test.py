@@ -92,6 +92,19 @@ class Detect(Base):
         head = read(self.p("c.csv"), "r").splitlines()[0]
         self.assertTrue(head.startswith("file,u,v,r,area,chosen,refusal"), head)
 
+    def test_annotate_directory_made_or_refused_up_front(self):
+        # Made where missing (as `run --annotate` does), parents too.
+        r = self.bv("detect", "--lut", "builtin", "--json", self.p("o.json"), "--annotate",
+                    self.p("new", "ann"), STILL)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertEqual(os.listdir(self.p("new", "ann")), ["ball_200x160.jpg.png"])
+        # A file in its way: refused before any image is read, naming it; no JSON written.
+        with open(self.p("plain"), "w") as f:
+            f.write("x")
+        self.refused(["detect", "--lut", "builtin", "--json", self.p("o2.json"), "--annotate",
+                      self.p("plain"), STILL], 1, "cannot create the directory " + self.p("plain"))
+        self.assertFalse(os.path.exists(self.p("o2.json")))
+
     def test_truncated_and_corrupt_jpeg(self):
         data = read(STILL)
         with open(self.p("cut.jpg"), "wb") as f:

@@ -229,6 +229,7 @@ int ParseDetect(int argc, char** argv, DetectArgs& a, ColorLut& lut, DetectInput
   std::string error;
   const bool ok = CheckOutputPath(a.json, error) &&
                   (a.candidates.empty() || CheckOutputPath(a.candidates, error)) &&
+                  (a.annotate.empty() || MakeOutputDirectory(a.annotate, error)) &&
                   LoadTable(a.lut, a.ball, lut, in.profile, error) &&
                   LoadClassifier(a.classifier, in.classifier, error) &&
                   (a.calib.empty() || LoadCalibrationFile(a.calib, in.cal, error)) &&

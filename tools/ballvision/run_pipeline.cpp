@@ -9,6 +9,7 @@
 #include <memory>
 
 #include "tools/ballvision/annotate_frontend.h"
+#include "tools/ballvision/safe_write.h"
 #include "tools/ballvision/signals.h"
 
 namespace bv::cli {
@@ -18,8 +19,7 @@ namespace {
 class FeatureWriter {
  public:
   bool Open(const std::string& dir, std::string& error) {
-    std::error_code ec;
-    std::filesystem::create_directories(dir, ec);
+    if (!cli::MakeOutputDirectory(dir, error)) return false;
     lines_ = std::fopen((dir + "/lines.csv").c_str(), "w");
     obstacles_ = std::fopen((dir + "/obstacles.csv").c_str(), "w");
     if (!lines_ || !obstacles_) {
@@ -159,9 +159,8 @@ bool RunSequence(const host::Sequence& seq, Pipeline& pipeline, const RunSetting
                  std::vector<FrameRecord>& records, std::string& error) {
   records.clear();
   records.reserve(seq.entries.size());
-  if (!settings.annotate_dir.empty()) {
-    std::error_code ec;
-    std::filesystem::create_directories(settings.annotate_dir, ec);
+  if (!settings.annotate_dir.empty() && !cli::MakeOutputDirectory(settings.annotate_dir, error)) {
+    return false;
   }
   std::unique_ptr<FeatureWriter> features;
   if (!settings.features_dir.empty()) {

@@ -7,6 +7,7 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 
 namespace bv::cli {
 namespace {
@@ -53,6 +54,20 @@ bool CheckOutputPath(const std::string& path, std::string& error) {
   error = "refusing to write " + path + ": it is " + KindOf(st.st_mode) +
           " (only regular files are replaced)";
   return false;
+}
+
+bool MakeOutputDirectory(const std::string& dir, std::string& error) {
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) {
+    error = "cannot create the directory " + dir + ": " + ec.message();
+    return false;
+  }
+  if (!std::filesystem::is_directory(dir, ec)) {
+    error = dir + " exists and is not a directory";
+    return false;
+  }
+  return true;
 }
 
 SafeOutput::~SafeOutput() { Abandon(); }

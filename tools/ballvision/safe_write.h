@@ -20,6 +20,10 @@ bool WriteFileAtomic(const std::string& path, const std::vector<unsigned char>& 
 /// symlink is refused rather than followed).
 bool CheckOutputPath(const std::string& path, std::string& error);
 
+/// Creates `dir` and its parents where missing (mkdir -p). False with a message naming it when
+/// it cannot be made or exists and is not a directory.
+bool MakeOutputDirectory(const std::string& dir, std::string& error);
+
 /// A file written incrementally (CSV rows as they arrive) with the same guarantees. Nothing is
 /// visible at `path` until Commit(); destruction without Commit() removes the temporary file.
 class SafeOutput {
