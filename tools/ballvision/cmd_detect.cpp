@@ -63,10 +63,13 @@ constexpr char kEvalUsage[] =
     "           and the other way round\n"
     "  first5   taught from the set's first five images with a ball, tested on the rest\n"
     "  builtin  the built-in table of --ball (default yellow), no teaching, every image\n"
-    "  Scoring: the first ball is found when it lies inside a ball box grown by 15 %; an image\n"
+    "  Scoring: the first ball is found when it lies inside a ball box grown by 15 % (a box on\n"
+    "  the image border, which the border clips, also beyond it by the ball's visible extent:\n"
+    "  a cut ball's fitted centre lies there); an image\n"
     "  counts for recall when it has a ball box at least 10 px wide whose sides are at least\n"
     "  half as long as each other (not mostly hidden or cut); a first ball matching no box is\n"
-    "  false on any image. Centre error: first ball to the matched box's centre.\n";
+    "  false on any image. Centre error: first ball to the matched box's centre. The candidates'\n"
+    "  box column: the matched ball box, -1 none, -2 a ball box matched only beyond the border.\n";
 
 bool ReadFile(const std::string& path, std::vector<uint8_t>& out, std::string& error) {
   std::ifstream in(path, std::ios::binary);
@@ -315,8 +318,43 @@ bool Countable(const AnnotatedBox& b) {
   return b.class_id == 0 && std::max(w, h) >= 10.0f && std::min(w, h) >= 0.5f * std::max(w, h);
 }
 
-// The first ball against the image's boxes.
-void ScoreImage(const AnnotatedImage& im, const StillResult& r, Score& s, bool verbose) {
+// The ball box a detection at (u, v) falls in (grown by 7.5 % a side), the nearest centre first;
+// -1 for none. The dataset clips a box to the image: one on its border is also grown beyond it by
+// the ball's visible extent, where the fitted circle of a ball the border cuts has its centre
+// (`beyond` says when only that part matched).
+int MatchBox(const AnnotatedImage& im, int width, int height, float u, float v,
+             float* centre_err = nullptr, bool* beyond = nullptr) {
+  int best = -1;
+  float best_e = 0;
+  if (beyond != nullptr) *beyond = false;
+  for (size_t i = 0; i < im.boxes.size(); ++i) {
+    const AnnotatedBox& x = im.boxes[i];
+    if (x.class_id != 0) continue;
+    const float w = x.u1 - x.u0, h = x.v1 - x.v0, cut = std::max(w, h);
+    const float u0 = x.u0 - (x.u0 <= 1.0f ? cut : 0.075f * w);
+    const float v0 = x.v0 - (x.v0 <= 1.0f ? cut : 0.075f * h);
+    const float u1 =
+        x.u1 + (width > 0 && x.u1 >= static_cast<float>(width) - 1.0f ? cut : 0.075f * w);
+    const float v1 =
+        x.v1 + (height > 0 && x.v1 >= static_cast<float>(height) - 1.0f ? cut : 0.075f * h);
+    if (u < u0 || u > u1 || v < v0 || v > v1) continue;
+    if (beyond != nullptr) {
+      *beyond = u < x.u0 - 0.075f * w || u > x.u1 + 0.075f * w || v < x.v0 - 0.075f * h ||
+                v > x.v1 + 0.075f * h;
+    }
+    const float e = std::hypot(u - 0.5f * (x.u0 + x.u1), v - 0.5f * (x.v0 + x.v1));
+    if (best < 0 || e < best_e) {
+      best = static_cast<int>(i);
+      best_e = e;
+    }
+  }
+  if (centre_err != nullptr) *centre_err = best_e;
+  return best;
+}
+
+// The first ball against the image's boxes (`width`, `height`: the image's size).
+void ScoreImage(const AnnotatedImage& im, int width, int height, const StillResult& r, Score& s,
+                bool verbose) {
   ++s.images;
   const bool countable = std::any_of(im.boxes.begin(), im.boxes.end(), Countable);
   s.countable += countable;
@@ -325,16 +363,8 @@ void ScoreImage(const AnnotatedImage& im, const StillResult& r, Score& s, bool v
     return;
   }
   const StillBall& b = r.balls[0];
-  float best = -1;
-  for (const AnnotatedBox& x : im.boxes) {
-    if (x.class_id != 0) continue;
-    const float gw = 0.075f * (x.u1 - x.u0), gh = 0.075f * (x.v1 - x.v0);
-    if (b.u_px >= x.u0 - gw && b.u_px <= x.u1 + gw && b.v_px >= x.v0 - gh && b.v_px <= x.v1 + gh) {
-      const float e = std::hypot(b.u_px - 0.5f * (x.u0 + x.u1), b.v_px - 0.5f * (x.v0 + x.v1));
-      if (best < 0 || e < best) best = e;
-    }
-  }
-  if (best < 0) {
+  float best = 0;
+  if (MatchBox(im, width, height, b.u_px, b.v_px, &best) < 0) {
     ++s.false_images;
     if (verbose) {
       std::printf("    %s: FALSE at (%.0f, %.0f) r %.1f score %.3f%s\n", im.name.c_str(), b.u_px,
@@ -376,24 +406,6 @@ nlohmann::json ScoreJson(const Score& s) {
 }
 
 // Which ball box (index in the image's boxes) a point lies in, grown by 15 %; -1: none.
-int MatchBox(const AnnotatedImage& im, float u, float v, float* centre_err = nullptr) {
-  int best = -1;
-  float best_e = 0;
-  for (size_t i = 0; i < im.boxes.size(); ++i) {
-    const AnnotatedBox& x = im.boxes[i];
-    if (x.class_id != 0) continue;
-    const float gw = 0.075f * (x.u1 - x.u0), gh = 0.075f * (x.v1 - x.v0);
-    if (u < x.u0 - gw || u > x.u1 + gw || v < x.v0 - gh || v > x.v1 + gh) continue;
-    const float e = std::hypot(u - 0.5f * (x.u0 + x.u1), v - 0.5f * (x.v0 + x.v1));
-    if (best < 0 || e < best_e) {
-      best = static_cast<int>(i);
-      best_e = e;
-    }
-  }
-  if (centre_err != nullptr) *centre_err = best_e;
-  return best;
-}
-
 struct EvalContext {
   std::string boxes;
   const BallClassifier* classifier = nullptr;
@@ -420,11 +432,16 @@ bool RunTest(const EvalContext& ctx, const ColorLut& lut, const FloorBallProfile
         !detector.Detect(still.image, r, ctx.candidates != nullptr, error)) {
       return false;
     }
-    ScoreImage(im, r, s, ctx.verbose);
+    ScoreImage(im, still.width, still.height, r, s, ctx.verbose);
     if (ctx.candidates != nullptr) {
       const bool countable = std::any_of(im.boxes.begin(), im.boxes.end(), Countable);
       for (const StillCandidate& c : r.candidates) {
-        const int box = MatchBox(im, c.shape.u_px, c.shape.v_px);
+        // -2: a ball matched only beyond the image border that cuts it (its look is not judged
+        // where its place is known, BallCheck::Evaluate).
+        bool beyond = false;
+        int box =
+            MatchBox(im, still.width, still.height, c.shape.u_px, c.shape.v_px, nullptr, &beyond);
+        if (box >= 0 && beyond) box = -2;
         char buf[160];
         std::snprintf(buf, sizeof buf, "%s,%s,%d,%d,", ctx.label.c_str(), im.name.c_str(),
                       countable ? 1 : 0, box);
@@ -448,7 +465,7 @@ bool TeachAndTest(const EvalContext& ctx, const std::string& label,
   if (!TeachFromBoxes(ctx.boxes, train, BoxTeachOptions{}, t, why)) {
     std::printf("    %s: teach refused (%s): every test image scored without a ball\n",
                 label.c_str(), why.c_str());
-    for (const AnnotatedImage& im : test) ScoreImage(im, StillResult{}, s, false);
+    for (const AnnotatedImage& im : test) ScoreImage(im, 0, 0, StillResult{}, s, false);
     return true;
   }
   if (ctx.verbose) {
