@@ -338,14 +338,14 @@ int MatchBox(const AnnotatedImage& im, int width, int height, float u, float v,
     const float v1 =
         x.v1 + (height > 0 && x.v1 >= static_cast<float>(height) - 1.0f ? cut : 0.075f * h);
     if (u < u0 || u > u1 || v < v0 || v > v1) continue;
-    if (beyond != nullptr) {
-      *beyond = u < x.u0 - 0.075f * w || u > x.u1 + 0.075f * w || v < x.v0 - 0.075f * h ||
-                v > x.v1 + 0.075f * h;
-    }
     const float e = std::hypot(u - 0.5f * (x.u0 + x.u1), v - 0.5f * (x.v0 + x.v1));
     if (best < 0 || e < best_e) {
       best = static_cast<int>(i);
       best_e = e;
+      if (beyond != nullptr) {
+        *beyond = u < x.u0 - 0.075f * w || u > x.u1 + 0.075f * w || v < x.v0 - 0.075f * h ||
+                  v > x.v1 + 0.075f * h;
+      }
     }
   }
   if (centre_err != nullptr) *centre_err = best_e;
@@ -405,7 +405,6 @@ nlohmann::json ScoreJson(const Score& s) {
           {"centre_err_p90_px", Percentile(s.centre_err, 0.9f)}};
 }
 
-// Which ball box (index in the image's boxes) a point lies in, grown by 15 %; -1: none.
 struct EvalContext {
   std::string boxes;
   const BallClassifier* classifier = nullptr;
