@@ -330,22 +330,23 @@ int MatchBox(const AnnotatedImage& im, int width, int height, float u, float v,
   for (size_t i = 0; i < im.boxes.size(); ++i) {
     const AnnotatedBox& x = im.boxes[i];
     if (x.class_id != 0) continue;
-    const float w = x.u1 - x.u0, h = x.v1 - x.v0, cut = std::max(w, h);
-    const float u0 = x.u0 - (x.u0 <= 1.0f ? cut : 0.075f * w);
-    const float v0 = x.v0 - (x.v0 <= 1.0f ? cut : 0.075f * h);
-    const float u1 =
-        x.u1 + (width > 0 && x.u1 >= static_cast<float>(width) - 1.0f ? cut : 0.075f * w);
-    const float v1 =
-        x.v1 + (height > 0 && x.v1 >= static_cast<float>(height) - 1.0f ? cut : 0.075f * h);
-    if (u < u0 || u > u1 || v < v0 || v > v1) continue;
+    const float gw = 0.075f * (x.u1 - x.u0), gh = 0.075f * (x.v1 - x.v0);
+    const float cut = std::max(x.u1 - x.u0, x.v1 - x.v0);
+    // The box grown by these margins on its left, top, right and bottom.
+    const auto within = [&](float left, float top, float right, float bottom) {
+      return u >= x.u0 - left && u <= x.u1 + right && v >= x.v0 - top && v <= x.v1 + bottom;
+    };
+    const bool at_right = width > 0 && x.u1 >= static_cast<float>(width) - 1.0f;
+    const bool at_bottom = height > 0 && x.v1 >= static_cast<float>(height) - 1.0f;
+    if (!within(x.u0 <= 1.0f ? cut : gw, x.v0 <= 1.0f ? cut : gh, at_right ? cut : gw,
+                at_bottom ? cut : gh)) {
+      continue;
+    }
     const float e = std::hypot(u - 0.5f * (x.u0 + x.u1), v - 0.5f * (x.v0 + x.v1));
     if (best < 0 || e < best_e) {
       best = static_cast<int>(i);
       best_e = e;
-      if (beyond != nullptr) {
-        *beyond = u < x.u0 - 0.075f * w || u > x.u1 + 0.075f * w || v < x.v0 - 0.075f * h ||
-                  v > x.v1 + 0.075f * h;
-      }
+      if (beyond != nullptr) *beyond = !within(gw, gh, gw, gh);
     }
   }
   if (centre_err != nullptr) *centre_err = best_e;
